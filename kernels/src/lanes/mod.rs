@@ -1,0 +1,145 @@
+//! SIMD lanes: the one place in kdbeam that touches `std::arch`.
+//!
+//! A [`Lanes`] value is a zero-sized *token* that proves the CPU supports an instruction set:
+//! [`Scalar`] and [`Portable`] always exist, [`Sse`] (SSE4.1) and [`Avx`] (AVX2 + FMA) only after
+//! run-time detection (or an `unsafe` promise). Vectors ([`Lanes::F32`]) and masks
+//! ([`Lanes::Mask`]) can only be made through a token, so holding one is proof that its
+//! instructions may run; that is what makes their safe operator impls sound.
+//!
+//! Kernels are written once, generic over `L: Lanes`, and marked `#[inline(always)]`. A kernel is
+//! instantiated per ISA by [`Lanes::run`], which enters a `#[target_feature]` function and calls a
+//! [`LaneTask`] inside it: everything inlined there is compiled for that ISA, whatever the build
+//! flags (this is how Embree instantiates one templated kernel per width and ISA, and how the
+//! memchr crate dispatches at run time).
+
+use core::fmt::Debug;
+use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
+
+#[cfg(target_arch = "x86_64")]
+mod avx;
+mod isa;
+mod portable;
+mod scalar;
+#[cfg(target_arch = "x86_64")]
+mod sse;
+
+#[cfg(target_arch = "x86_64")]
+pub use avx::{Avx, AvxF32, AvxMask};
+pub use isa::{Isa, ParseIsaError};
+pub use portable::{Portable, PortableMask};
+pub use scalar::Scalar;
+#[cfg(target_arch = "x86_64")]
+pub use sse::{Sse, SseF32, SseMask};
+
+/// An instruction set and width, as a token that proves the CPU supports it.
+///
+/// Every method is `#[inline(always)]` in every implementation, so that generic kernels compile
+/// to the ISA of the `#[target_feature]` function they are inlined into.
+pub trait Lanes: Copy + Debug + Send + Sync + 'static {
+    /// Number of `f32` lanes in [`Self::F32`].
+    const WIDTH: usize;
+    /// Which instruction set this is.
+    const ISA: Isa;
+    /// A vector of `WIDTH` `f32` lanes.
+    type F32: LaneF32<Mask = Self::Mask>;
+    /// A vector of `WIDTH` booleans, as produced by comparisons.
+    type Mask: LaneMask;
+
+    /// All lanes equal to `x`.
+    fn splat(self, x: f32) -> Self::F32;
+    /// Lanes `src[0..WIDTH]`. Panics if `src.len() < WIDTH`.
+    fn load(self, src: &[f32]) -> Self::F32;
+    /// Writes the lanes to `dst[0..WIDTH]`. Panics if `dst.len() < WIDTH`.
+    fn store(self, v: Self::F32, dst: &mut [f32]);
+    /// Mask whose lane `i` is set when bit `i` of `bits` is; bits at or above `WIDTH` are ignored.
+    fn mask_from_bits(self, bits: u32) -> Self::Mask;
+    /// Runs `task` compiled for this ISA (inside a `#[target_feature]` function where needed).
+    fn run<T: LaneTask>(self, task: T) -> T::Output;
+}
+
+/// A computation generic over the lanes, run per ISA by [`Lanes::run`].
+///
+/// Implementations must mark `run` `#[inline(always)]`, and so must every generic kernel it calls:
+/// code that is not inlined into the `#[target_feature]` entry point is compiled for the baseline
+/// ISA and calls each intrinsic out of line.
+pub trait LaneTask {
+    /// What the task returns.
+    type Output;
+    /// Runs the task on `lanes`.
+    fn run<L: Lanes>(self, lanes: L) -> Self::Output;
+}
+
+/// A vector of `f32` lanes. Arithmetic is IEEE 754 per lane, never fused unless
+/// [`LaneF32::mul_add`] is called.
+pub trait LaneF32:
+    Copy
+    + Debug
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// The mask type comparisons produce.
+    type Mask: LaneMask;
+
+    /// `self * a + b`: one rounding where the ISA has FMA (AVX2 + FMA), two elsewhere.
+    ///
+    /// Never use it where two computations must round identically on every ISA (the watertight
+    /// edge functions of two triangles sharing an edge).
+    fn mul_add(self, a: Self, b: Self) -> Self;
+    /// Lane-wise `if self < o { self } else { o }`: returns `o` when either is NaN (x86 `minps`).
+    fn min(self, o: Self) -> Self;
+    /// Lane-wise `if self > o { self } else { o }`: returns `o` when either is NaN (x86 `maxps`).
+    fn max(self, o: Self) -> Self;
+    /// Lane-wise absolute value (clears the sign bit, so NaN stays NaN).
+    fn abs(self) -> Self;
+    /// Ordered `<` (false when either lane is NaN).
+    fn lt(self, o: Self) -> Self::Mask;
+    /// Ordered `<=`.
+    fn le(self, o: Self) -> Self::Mask;
+    /// Ordered `>`.
+    fn gt(self, o: Self) -> Self::Mask;
+    /// Ordered `>=`.
+    fn ge(self, o: Self) -> Self::Mask;
+    /// Ordered `==`.
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Lanes that are NaN.
+    fn is_nan(self) -> Self::Mask;
+    /// Lane-wise `if m { a } else { b }`.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Lane `i`. Panics if `i >= WIDTH`.
+    fn extract(self, i: usize) -> f32;
+    /// Smallest lane, ignoring NaN lanes (`+inf` when every lane is NaN).
+    fn reduce_min(self) -> f32;
+    /// Largest lane, ignoring NaN lanes (`-inf` when every lane is NaN).
+    fn reduce_max(self) -> f32;
+}
+
+/// A vector of booleans, one per lane. `!m` only sets the `WIDTH` real lanes.
+pub trait LaneMask:
+    Copy
+    + Debug
+    + BitAnd<Output = Self>
+    + BitOr<Output = Self>
+    + BitXor<Output = Self>
+    + Not<Output = Self>
+{
+    /// Bit `i` set when lane `i` is (x86 `movemask`).
+    fn bits(self) -> u32;
+    /// Is any lane set?
+    #[inline(always)]
+    fn any(self) -> bool {
+        self.bits() != 0
+    }
+    /// Is no lane set?
+    #[inline(always)]
+    fn none(self) -> bool {
+        self.bits() == 0
+    }
+    /// `self & !o`, in one instruction where the ISA has it.
+    #[inline(always)]
+    fn and_not(self, o: Self) -> Self {
+        self & !o
+    }
+}

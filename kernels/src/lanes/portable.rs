@@ -1,0 +1,6 @@
+//! Placeholder.
+/// Placeholder.
+#[derive(Clone, Copy, Debug)]
+pub struct Portable;
+/// Placeholder.
+pub struct PortableMask;

@@ -1,0 +1,20 @@
+//! The kernels of kdbeam: SIMD lanes, rays and packets, triangle forms, ray × triangle tests,
+//! ray × box slabs and the transient frustum. They know rays, triangles and boxes, never trees.
+//!
+//! `#![no_std]` and allocation-free; the `std` feature only adds run-time ISA detection.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![deny(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod aabb;
+pub mod intersect;
+pub mod lanes;
+pub mod ray;
+pub mod slab;
+pub mod triangle;
+
+pub use aabb::Aabb;
+pub use glam::{DVec3, Vec3};
+pub use lanes::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+pub use ray::{Hit, Ray};
+pub use triangle::{KsTriangle, Triangle};

@@ -1,0 +1,2 @@
+//! The kdbeam command-line tool.
+fn main() {}

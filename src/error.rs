@@ -1,0 +1,74 @@
+//! The one error type of kdbeam.
+
+use std::path::PathBuf;
+
+use kdbeam_kernels::Isa;
+
+/// Everything that can go wrong with user input. Nothing in kdbeam panics on bad input.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be opened, read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is not valid OBJ (or not valid gzip).
+    #[error("{}:{line}: {message}", path.display())]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the fault, 0 when it is not tied to a line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A vertex has a NaN or infinite coordinate.
+    #[error("vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFinite {
+        /// 0-based vertex index.
+        vertex: usize,
+        /// Its coordinates.
+        position: [f32; 3],
+    },
+    /// A face refers to a vertex that does not exist.
+    #[error("face {face} refers to vertex {index}, but there are only {vertex_count} vertices")]
+    IndexOutOfRange {
+        /// 0-based face (triangle) index.
+        face: usize,
+        /// The index it holds.
+        index: u64,
+        /// How many vertices there are.
+        vertex_count: usize,
+    },
+    /// A file holds no triangles.
+    #[error("{}: no triangles", path.display())]
+    NoTriangles {
+        /// The file.
+        path: PathBuf,
+    },
+    /// An index list whose length is not a multiple of 3, or too many vertices for `u32` indices.
+    #[error("malformed mesh input: {0}")]
+    MalformedMesh(String),
+    /// A parameter outside its range.
+    #[error("invalid {name}: {message}")]
+    InvalidParameter {
+        /// The parameter.
+        name: &'static str,
+        /// Its range, and what was given.
+        message: String,
+    },
+    /// An ISA was forced that this CPU does not run.
+    #[error("the {0} instruction set is not available on this CPU")]
+    IsaUnavailable(Isa),
+    /// `builtin:NAME` names no built-in scene.
+    #[error("unknown built-in scene {0:?} (try builtin:default, builtin:icosphere, builtin:grid, builtin:soup, builtin:hair, builtin:terrain)")]
+    UnknownScene(String),
+}
+
+/// `Result<T, kdbeam::Error>`.
+pub type Result<T> = std::result::Result<T, Error>;

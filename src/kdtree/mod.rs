@@ -1,0 +1,157 @@
+//! SAH kd-trees: build, node layout, leaf records, statistics.
+
+mod build;
+mod node;
+mod stats;
+
+use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
+
+pub use node::{Node, MAX_NODE_INDEX};
+pub use stats::BuildStats;
+
+use crate::{Error, Mesh, Result};
+
+/// Parameters of the SAH build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    /// Cost of one ray–triangle test over the cost of one traversal step (`Ci / Ct`), the
+    /// horizontal axis of Reshetov's Figs. 7–9. Larger values split more: bigger trees, smaller
+    /// leaves. Must be finite and > 0.
+    pub ci_over_ct: f32,
+    /// Fraction by which the SAH cost of a split is reduced when one side is empty, in `[0, 1)`.
+    pub empty_bonus: f32,
+    /// Maximum depth; `None` means `8 + 1.3 · log2(N)` (pbrt's rule).
+    pub max_depth: Option<u32>,
+    /// Nodes with at most this many triangles become leaves without trying to split (>= 1).
+    pub leaf_size: u32,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            ci_over_ct: 1.5,
+            empty_bonus: 0.5,
+            max_depth: None,
+            leaf_size: 1,
+        }
+    }
+}
+
+impl BuildParams {
+    /// Checks every field's range.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] naming the first field out of range.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, message: String| Err(Error::InvalidParameter { name, message });
+        if !(self.ci_over_ct.is_finite() && self.ci_over_ct > 0.0) {
+            return bad(
+                "ci_over_ct",
+                format!("must be finite and > 0, got {}", self.ci_over_ct),
+            );
+        }
+        if !(0.0..1.0).contains(&self.empty_bonus) {
+            return bad(
+                "empty_bonus",
+                format!("must be in [0, 1), got {}", self.empty_bonus),
+            );
+        }
+        if self.max_depth.is_some_and(|d| d > 64) {
+            return bad(
+                "max_depth",
+                format!("must be at most 64, got {:?}", self.max_depth),
+            );
+        }
+        if self.leaf_size == 0 {
+            return bad("leaf_size", "must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// The depth limit for `triangles` triangles.
+    pub fn depth_limit(&self, triangles: usize) -> u32 {
+        self.max_depth
+            .unwrap_or_else(|| (8.0 + 1.3 * (triangles.max(1) as f64).log2()).round() as u32)
+            .min(64)
+    }
+}
+
+/// What a leaf holds: a run of the leaf-ordered triangle arrays and its tight box.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LeafRecord {
+    /// Index of the leaf's first triangle in [`KdTree::triangles`] (and `ks_triangles`, `ids`).
+    pub first: u32,
+    /// Number of triangles (0 for an empty leaf).
+    pub count: u32,
+    /// The cell ∩ the union of the leaf's triangles clipped to the cell (empty when `count = 0`).
+    /// The transient frustum is built against this box.
+    pub bounds: Aabb,
+}
+
+/// A leaf's triangles, in the forms the kernels read.
+#[derive(Clone, Copy, Debug)]
+pub struct LeafTriangles<'a> {
+    /// Vertices (watertight form, frustum culling).
+    pub triangles: &'a [Triangle],
+    /// Kensler–Shirley form.
+    pub ks: &'a [KsTriangle],
+    /// Mesh triangle ids.
+    pub ids: &'a [u32],
+}
+
+/// An SAH kd-tree over a mesh, its triangles re-laid out in leaf order.
+#[derive(Clone, Debug)]
+pub struct KdTree {
+    nodes: Vec<Node>,
+    leaves: Vec<LeafRecord>,
+    triangles: Vec<Triangle>,
+    ks_triangles: Vec<KsTriangle>,
+    ids: Vec<u32>,
+    bounds: Aabb,
+    mesh_triangles: usize,
+    stats: BuildStats,
+}
+
+impl KdTree {
+    /// The nodes, root first.
+    #[inline(always)]
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// Leaf records, indexed by [`Node::leaf_record`].
+    #[inline(always)]
+    pub fn leaves(&self) -> &[LeafRecord] {
+        &self.leaves
+    }
+
+    /// The triangles of leaf record `leaf`.
+    #[inline(always)]
+    pub fn leaf_triangles(&self, leaf: &LeafRecord) -> LeafTriangles<'_> {
+        let r = leaf.first as usize..(leaf.first + leaf.count) as usize;
+        LeafTriangles {
+            triangles: &self.triangles[r.clone()],
+            ks: &self.ks_triangles[r.clone()],
+            ids: &self.ids[r],
+        }
+    }
+
+    /// The root cell: the mesh's bounding box (empty for an empty mesh).
+    #[inline]
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// How many triangles the mesh had.
+    #[inline]
+    pub fn mesh_triangle_count(&self) -> usize {
+        self.mesh_triangles
+    }
+
+    /// Build statistics.
+    #[inline]
+    pub fn stats(&self) -> &BuildStats {
+        &self.stats
+    }
+}

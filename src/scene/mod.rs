@@ -1,0 +1,9 @@
+//! Scenes: validated meshes, OBJ loading, procedural and synthetic generators.
+
+mod mesh;
+mod obj;
+pub mod procedural;
+pub mod rng;
+
+pub use mesh::Mesh;
+pub use obj::load_obj;
