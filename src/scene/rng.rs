@@ -57,10 +57,7 @@ impl Rng {
     }
 
     fn step(&mut self) {
-        self.state = self
-            .state
-            .wrapping_mul(MULTIPLIER)
-            .wrapping_add(INCREMENT);
+        self.state = self.state.wrapping_mul(MULTIPLIER).wrapping_add(INCREMENT);
     }
 
     /// The next 32 uniformly distributed bits.
