@@ -470,6 +470,201 @@ pub fn default_scene() -> Mesh {
 mod tests {
     use super::*;
 
+    /// How often each directed edge (a → b) occurs in the mesh's triangles.
+    fn directed_edges(mesh: &Mesh) -> HashMap<(u32, u32), usize> {
+        let mut edges = HashMap::new();
+        for &[a, b, c] in mesh.faces() {
+            for edge in [(a, b), (b, c), (c, a)] {
+                *edges.entry(edge).or_insert(0) += 1;
+            }
+        }
+        edges
+    }
+
+    /// Closed and consistently wound: every directed edge occurs once and its reverse once, so
+    /// every undirected edge belongs to exactly two triangles, which traverse it in opposite
+    /// directions. Also no two vertices coincide, so the closure is not just in the indices.
+    fn assert_closed(mesh: &Mesh) {
+        let edges = directed_edges(mesh);
+        for (&(a, b), &n) in &edges {
+            assert_eq!(n, 1, "edge {a}→{b} occurs {n} times");
+            assert_eq!(edges.get(&(b, a)), Some(&1), "edge {a}→{b} has no twin");
+        }
+        let mut seen = std::collections::HashSet::new();
+        for p in mesh.positions() {
+            assert!(
+                seen.insert(p.to_array().map(f32::to_bits)),
+                "duplicate vertex {p}"
+            );
+        }
+    }
+
+    /// Sum over triangles of ⅓·(area vector)·(centroid − c): the enclosed volume of a closed mesh
+    /// whose normals point out (divergence theorem), negative if they point in.
+    fn signed_volume(mesh: &Mesh, c: Vec3) -> f32 {
+        mesh.triangles()
+            .map(|t| {
+                (t.v1 - t.v0)
+                    .cross(t.v2 - t.v0)
+                    .dot((t.v0 + t.v1 + t.v2) / 3.0 - c)
+                    / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn icospheres_are_closed_outward_and_match_the_counts() {
+        let ball = 4.0 / 3.0 * std::f32::consts::PI * 8.0;
+        for s in 0..=4u32 {
+            let center = Vec3::new(1.0, -2.0, 3.0);
+            let sphere = icosphere(center, 2.0, s);
+            assert_eq!(sphere.triangle_count(), 20 * 4usize.pow(s));
+            assert_eq!(sphere.positions().len(), 10 * 4usize.pow(s) + 2);
+            assert_closed(&sphere);
+            for p in sphere.positions() {
+                // Normalising and scaling leave a few ulps; 2e-5 is ~40 ulps at radius 2.
+                assert!(((*p - center).length() - 2.0).abs() < 2e-5, "{p}");
+            }
+            // Inscribed in the ball of radius 2: smaller than it, and within 5% from s = 2 on.
+            let volume = signed_volume(&sphere, center);
+            assert!(volume > 0.0 && volume < ball, "s={s}: {volume}");
+            assert!(s < 2 || volume > 0.95 * ball, "s={s}: {volume}");
+        }
+    }
+
+    #[test]
+    fn far_away_icosphere_is_still_closed() {
+        // The leak test's centre (DESIGN.md), where one ulp is 1/64.
+        let sphere = icosphere(Vec3::new(148_376.0, 1234.0, -223_423.0), 100.0, 4);
+        assert_eq!(sphere.triangle_count(), 5120);
+        assert_closed(&sphere);
+    }
+
+    #[test]
+    fn closed_grid_box_is_closed_outward_and_matches_the_counts() {
+        let (center, half) = (Vec3::splat(10.0), Vec3::new(1.0, 2.0, 0.5));
+        for n in 1..=5u32 {
+            let n2 = (n * n) as usize;
+            let cube = closed_grid_box(n, center, half);
+            assert_eq!(cube.triangle_count(), 12 * n2);
+            assert_eq!(cube.positions().len(), 6 * n2 + 2);
+            assert_closed(&cube);
+            // Volume 2·4·1 = 8; the sum of 12n² terms of size ~1 rounds by well under 1e-3.
+            let volume = signed_volume(&cube, center);
+            assert!((volume - 8.0).abs() < 1e-3, "n={n}: {volume}");
+            assert_eq!(cube.bounds().min, center - half);
+            assert_eq!(cube.bounds().max, center + half);
+        }
+    }
+
+    #[test]
+    fn quad_grid_matches_its_counts_and_parallelogram() {
+        let grid = quad_grid(5, 3, Vec3::ONE, Vec3::X * 10.0, Vec3::Z * 6.0);
+        assert_eq!(grid.triangle_count(), 2 * 5 * 3);
+        assert_eq!(grid.positions().len(), 6 * 4);
+        assert_eq!(grid.bounds().min, Vec3::ONE);
+        assert_eq!(grid.bounds().max, Vec3::new(11.0, 1.0, 7.0));
+        // 2·15·3 = 90 directed edges; only the 2·(5 + 3) = 16 on the boundary lack a twin.
+        let edges = directed_edges(&grid);
+        assert_eq!(edges.values().sum::<usize>(), 90);
+        let lone = edges.keys().filter(|(a, b)| !edges.contains_key(&(*b, *a)));
+        assert_eq!(lone.count(), 16);
+        // Normals along u × v = X × Z = −Y.
+        assert!(grid
+            .triangles()
+            .all(|t| (t.v1 - t.v0).cross(t.v2 - t.v0).y < 0.0));
+        assert!(quad_grid(0, 4, Vec3::ZERO, Vec3::X, Vec3::Y).is_empty());
+    }
+
+    #[test]
+    fn seeded_generators_are_deterministic_and_depend_on_the_seed() {
+        type Generator = fn(u32, u64) -> Mesh;
+        let generators: [(&str, Generator); 3] = [
+            ("soup", triangle_soup),
+            ("hair", hair),
+            ("terrain", terrain),
+        ];
+        for (name, generate) in generators {
+            let a = generate(50, 9);
+            assert_eq!(a, generate(50, 9), "{name}");
+            assert_ne!(a, generate(50, 10), "{name}");
+        }
+    }
+
+    #[test]
+    fn soup_triangles_sit_in_the_unit_cube_give_or_take_their_size() {
+        let soup = triangle_soup(1000, 5);
+        assert_eq!(soup.triangle_count(), 1000);
+        assert_eq!(soup.positions().len(), 3000);
+        // Vertices lie within ℓ = ½·1000^(−1/3) = 0.05 of centres in [0, 1)³ (1e-4: rounding).
+        let b = soup.bounds();
+        assert!(
+            b.min.min_element() >= -0.0501 && b.max.max_element() <= 1.0501,
+            "{b:?}"
+        );
+        assert!(
+            b.min.max_element() < 0.05 && b.max.min_element() > 0.95,
+            "{b:?}"
+        );
+    }
+
+    #[test]
+    fn hair_strands_are_long_thin_and_diagonal() {
+        let hair = hair(1000, 5);
+        assert_eq!(hair.triangle_count(), 1000);
+        for t in hair.triangles() {
+            let root = (t.v0 + t.v1) / 2.0;
+            let along = t.v2 - root;
+            // Rounding of sums of numbers below 2: a few ulps (~1e-7) each; 1e-5 is generous.
+            assert!((along.length() - 0.5).abs() < 1e-5);
+            assert!(((t.v1 - t.v0).length() - 0.002).abs() < 1e-5);
+            // (1, 1, 1), of length √3, tilted by at most ¼: within asin(¼/√3) ≈ 8.3°, cos ≥ 0.9895.
+            assert!(along.normalize().dot(Vec3::ONE.normalize()) > 0.989);
+        }
+    }
+
+    #[test]
+    fn terrain_matches_its_counts_and_domain() {
+        for resolution in [1, 2, 37] {
+            let t = terrain(resolution, 3);
+            let r = resolution as usize;
+            assert_eq!(t.triangle_count(), 2 * r * r);
+            assert_eq!(t.positions().len(), (r + 1) * (r + 1));
+            let b = t.bounds();
+            assert_eq!((b.min.x, b.max.x, b.min.z, b.max.z), (-1.0, 1.0, 0.0, 2.0));
+            // Shape in [0, 2], noise in [−0.12, 0.12].
+            assert!(b.min.y >= -0.12 && b.max.y <= 2.12, "{b:?}");
+            assert!(t
+                .triangles()
+                .all(|t| (t.v1 - t.v0).cross(t.v2 - t.v0).y > 0.0));
+        }
+        assert!(terrain(0, 3).is_empty());
+    }
+
+    #[test]
+    fn default_scene_has_the_documented_size_and_extent() {
+        let scene = default_scene();
+        assert_eq!(scene.triangle_count(), 243_712);
+        let b = scene.bounds();
+        assert_eq!((b.min.x, b.max.x, b.min.z, b.max.z), (-1.0, 1.0, 0.0, 2.0));
+    }
+
+    #[test]
+    fn non_finite_parameters_give_the_empty_mesh() {
+        assert!(icosphere(Vec3::NAN, 1.0, 2).is_empty());
+        assert!(icosphere(Vec3::ZERO, f32::INFINITY, 2).is_empty());
+        assert!(quad_grid(2, 2, Vec3::ZERO, Vec3::X, Vec3::INFINITY).is_empty());
+        assert!(closed_grid_box(2, Vec3::ZERO, Vec3::NAN).is_empty());
+    }
+
+    #[test]
+    fn every_builtin_name_loads() {
+        for name in BUILTIN_NAMES {
+            let mesh = builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(!mesh.is_empty(), "{name}");
+        }
+    }
+
     #[test]
     fn builtin_sizes_are_parsed_and_checked() {
         assert_eq!(

@@ -93,8 +93,9 @@ impl Rng {
     #[inline]
     pub fn range(&mut self, a: f32, b: f32) -> f32 {
         let u = self.next_f32();
+        // For finite a and b, b − a > 0 exactly when a < b (gradual underflow keeps it nonzero).
         let width = b - a;
-        if !(a < b) || !width.is_finite() {
+        if !(width.is_finite() && width > 0.0) {
             return a;
         }
         let x = a + width * u;
