@@ -61,6 +61,18 @@ fn parse_line(result: Result<Mesh, Error>) -> usize {
     }
 }
 
+/// (face, index, vertex_count) of an out-of-range error, or a failure naming the error returned.
+fn out_of_range(result: Result<Mesh, Error>) -> (usize, u64, usize) {
+    match result {
+        Err(Error::IndexOutOfRange {
+            face,
+            index,
+            vertex_count,
+        }) => (face, index, vertex_count),
+        other => panic!("expected Error::IndexOutOfRange, got {other:?}"),
+    }
+}
+
 const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
 
 /// A plain OBJ with many lines, big enough that truncating its gzip cuts the deflate stream.
@@ -146,27 +158,15 @@ fn nan_and_infinite_vertices_are_non_finite_errors() {
 #[test]
 fn positive_index_out_of_range_names_face_and_index() {
     // The second face (triangle 1) refers to vertex 4 of 3.
-    match load_text(&format!("{TRIANGLE}f 1 2 3\nf 1 2 4\n")) {
-        Err(Error::IndexOutOfRange {
-            face,
-            index,
-            vertex_count,
-        }) => assert_eq!((face, index, vertex_count), (1, 4, 3)),
-        other => panic!("expected Error::IndexOutOfRange, got {other:?}"),
-    }
+    let result = load_text(&format!("{TRIANGLE}f 1 2 3\nf 1 2 4\n"));
+    assert_eq!(out_of_range(result), (1, 4, 3));
 }
 
 #[test]
 fn negative_index_reaching_before_the_first_vertex_is_out_of_range() {
     // Only two vertices exist when the face is read, though a third follows it.
-    match load_text("v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n") {
-        Err(Error::IndexOutOfRange {
-            face,
-            index,
-            vertex_count,
-        }) => assert_eq!((face, index, vertex_count), (0, 3, 2)),
-        other => panic!("expected Error::IndexOutOfRange, got {other:?}"),
-    }
+    let result = load_text("v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
+    assert_eq!(out_of_range(result), (0, 3, 2));
 }
 
 #[test]
@@ -178,14 +178,8 @@ fn absurd_indices_are_out_of_range_not_panics() {
         ("99999999999999999999999999", u64::MAX),
         ("-99999999999", 99_999_999_999),
     ] {
-        match load_text(&format!("{TRIANGLE}f 1 2 {token}\n")) {
-            Err(Error::IndexOutOfRange {
-                face: 0,
-                index,
-                vertex_count: 3,
-            }) => assert_eq!(index, expected, "{token}"),
-            other => panic!("{token}: expected Error::IndexOutOfRange, got {other:?}"),
-        }
+        let result = load_text(&format!("{TRIANGLE}f 1 2 {token}\n"));
+        assert_eq!(out_of_range(result), (0, expected, 3), "{token}");
     }
 }
 
