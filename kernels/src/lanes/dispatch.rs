@@ -1,8 +1,8 @@
 //! Running a [`LaneTask`] on an ISA chosen at run time.
 
-use super::{Isa, LaneTask, Lanes, Portable, Scalar};
 #[cfg(target_arch = "x86_64")]
 use super::{Avx, Sse};
+use super::{Isa, LaneTask, Lanes, Portable, Scalar};
 
 /// Runs `task` on `isa`: makes the token (detecting the CPU) and calls [`Lanes::run`].
 ///
