@@ -36,7 +36,8 @@ pub struct OracleRay {
 }
 
 impl OracleRay {
-    /// Prepares `ray` (converted exactly to `f64`; its `tmin`/`tmax` are not used).
+    /// Prepares `ray` (converted exactly to `f64`; its `tmin`/`tmax` are not used). A ray whose
+    /// direction has a NaN or infinite component never hits.
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir.as_dvec3();
         let a = d.abs();
@@ -52,8 +53,14 @@ impl OracleRay {
             axes.swap(0, 1);
         }
         let [kx, ky, _] = axes;
+        // An infinite direction names no point at a finite `t > 0`: poison the ray.
+        let org = if d[kz].is_finite() {
+            ray.origin.as_dvec3()
+        } else {
+            DVec3::NAN
+        };
         OracleRay {
-            org: ray.origin.as_dvec3(),
+            org,
             axes,
             shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
         }

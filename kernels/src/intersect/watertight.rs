@@ -26,15 +26,20 @@
 //! (§3: the products of two `f32` are exact in `f64`, so only the subtraction rounds, again
 //! antisymmetrically).
 //!
-//! **Distance.** `[tmin, tmax]` is checked first without a division, on `T` and `det` with the
-//! sign of `det` moved to `T` (paper §3): `tmin·|det| <= ±T <= tmax·|det|`. Only then is
-//! `1 / det` computed; the divided `t` is checked once more so that the returned `t` lies in the
-//! closed interval despite rounding.
+//! **Distance.** The paper compares `±T` with `tmax·|det|` before dividing, to skip the division
+//! for hits beyond the current one. That compare rounds differently from the returned
+//! `t = T·(1/det)`, so it can reject a hit whose returned `t` equals `tmax`, and then which of two
+//! triangles at the same `t` wins would depend on the order they are tested in (callers break
+//! ties by triangle id and need `t == tmax` accepted). Here the acceptance test is therefore
+//! `tmin <= t <= tmax` on the returned `t` itself; the division is only reached by rays that
+//! already passed the edge tests, so skipping it would save little.
 //!
 //! Edge cases: a triangle with two equal vertices has two equal sheared vertices, so its edge
 //! functions cancel exactly, `det = 0`, and it never hits. NaN in the ray or in a vertex makes an
 //! edge function NaN; every accepting comparison is written so that NaN fails it. A zero
-//! direction gives `Sx = 0/0 = NaN` and never hits.
+//! direction gives `Sx = 0/0 = NaN` and never hits. A direction with an infinite component names no
+//! point at a finite `t > 0` (the shear would flatten it to `t = 0`): the prepared ray gets a NaN
+//! origin and never hits.
 
 use glam::Vec3;
 
@@ -48,7 +53,7 @@ use crate::triangle::Triangle;
 pub struct WatertightRay {
     /// `(kx, ky, kz)`.
     axes: [usize; 3],
-    /// The origin, permuted to `(kx, ky, kz)`.
+    /// The origin, permuted to `(kx, ky, kz)` (NaN for a direction with an infinite component).
     org: [f32; 3],
     /// `(Sx, Sy, Sz)`.
     shear: [f32; 3],
@@ -114,9 +119,10 @@ impl WatertightRay {
             ((kz + 1) % 3, (kz + 2) % 3)
         };
         let axes = [kx, ky, kz];
+        let finite = LaneF32::abs(d[kz]) < f32::INFINITY;
         WatertightRay {
             axes,
-            org: axes.map(|k| ray.origin[k]),
+            org: axes.map(|k| if finite { ray.origin[k] } else { f32::NAN }),
             shear: shear_of(axes.map(|k| d[k]), 1.0),
         }
     }
@@ -145,14 +151,8 @@ impl WatertightRay {
         if !inside || det == 0.0 {
             return None;
         }
-        let scaled_t = dot3(e, [a[2], b[2], c[2]]);
-        let signed_t = if det < 0.0 { -scaled_t } else { scaled_t };
-        let abs_det = LaneF32::abs(det);
-        if !(signed_t >= tmin * abs_det && signed_t <= tmax * abs_det) {
-            return None;
-        }
         let rcp = 1.0 / det;
-        let t = scaled_t * rcp;
+        let t = dot3(e, [a[2], b[2], c[2]]) * rcp;
         if !(t >= tmin && t <= tmax) {
             return None;
         }
@@ -193,7 +193,7 @@ impl<L: Lanes> LaneAxis<L> {
 pub struct WatertightLanes<L: Lanes> {
     /// `(kx, ky, kz)` per lane.
     axes: [LaneAxis<L>; 3],
-    /// The origins, permuted per lane.
+    /// The origins, permuted per lane (NaN in lanes whose direction has an infinite component).
     org: [L::F32; 3],
     /// `(Sx, Sy, Sz)` per lane.
     shear: [L::F32; 3],
@@ -228,9 +228,11 @@ impl<L: Lanes> WatertightLanes<L> {
             LaneAxis::choose(flip, next, after_next),
             kz,
         ];
+        let finite = kz.pick(a).lt(l.splat(f32::INFINITY));
+        let nan = l.splat(f32::NAN);
         WatertightLanes {
             axes,
-            org: axes.map(|k| k.pick(rays.org)),
+            org: axes.map(|k| L::F32::select(finite, k.pick(rays.org), nan)),
             shear: shear_of(axes.map(|k| k.pick(rays.dir)), l.splat(1.0)),
         }
     }
@@ -261,17 +263,9 @@ impl<L: Lanes> WatertightLanes<L> {
         let nonneg = eu.ge(zero) & ev.ge(zero) & ew.ge(zero);
         let nonpos = eu.le(zero) & ev.le(zero) & ew.le(zero);
         let det = eu + ev + ew;
-        let scaled_t = dot3(e, [a[2], b[2], c[2]]);
-        let negative = det.lt(zero);
-        let signed_t = L::F32::select(negative, -scaled_t, scaled_t);
-        let abs_det = det.abs();
         let rcp = l.splat(1.0) / det;
-        let t = scaled_t * rcp;
-        let mask = (nonneg | nonpos).and_not(det.eq(zero))
-            & signed_t.ge(tmin * abs_det)
-            & signed_t.le(tmax * abs_det)
-            & t.ge(tmin)
-            & t.le(tmax);
+        let t = dot3(e, [a[2], b[2], c[2]]) * rcp;
+        let mask = (nonneg | nonpos).and_not(det.eq(zero)) & t.ge(tmin) & t.le(tmax);
         LaneHits {
             mask,
             t,
