@@ -1,7 +1,11 @@
 //! SAH kd-trees: build, node layout, leaf records, statistics.
 
 mod build;
+mod clip;
+mod events;
+mod layout;
 mod node;
+mod sah;
 mod stats;
 
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
@@ -9,7 +13,7 @@ use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
 
-use crate::{Error, Mesh, Result};
+use crate::{Error, Result};
 
 /// Parameters of the SAH build.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,0 +1,187 @@
+//! "Perfect splits" (Wald & Havran 2006, §4.3; Havran 2000): the box of the part of a triangle
+//! inside a cell, by Sutherland–Hodgman clipping of the triangle against the cell's six planes.
+//!
+//! The clip runs in f64 against the cell grown by a tiny relative margin, and the result is
+//! rounded outward to f32 and then clamped to the cell (clamping is exact). The f32 box therefore
+//! contains the exact part of the triangle inside the cell and lies inside the cell: it may be a
+//! little loose (by about an f32 ulp), never too tight. It is also clamped to the triangle's own
+//! vertex box (exact), so a triangle flat on an axis stays exactly flat there.
+
+use kdbeam_kernels::{Aabb, DVec3, Triangle};
+
+/// Vertices a clipped polygon may reach: a convex polygon gains at most one vertex per plane
+/// (3 + 6); more than this means rounding made it non-convex, and we fall back to the box.
+const MAX_POLYGON: usize = 12;
+
+/// Margin, relative to the largest coordinate involved, by which the cell is grown before
+/// clipping: far above the f64 rounding of six clips (a few ulps, 2^-52 each), far below an f32
+/// ulp (2^-23), so that rounding in the clip can only add, never lose, a sliver.
+const MARGIN: f64 = 1.0 / (1u64 << 40) as f64;
+
+/// The box of `tri ∩ cell`, conservative in f32 and inside `cell`; `None` when they do not meet.
+///
+/// A triangle touching the cell only on its boundary gives a flat box on that boundary.
+/// Degenerate triangles (segments, points) clip like any other polygon.
+pub(super) fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+    let verts = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+    let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
+    let magnitude = verts
+        .iter()
+        .chain([&cmin, &cmax])
+        .fold(0.0f64, |m, v| m.max(v.abs().max_element()));
+    let margin = magnitude * MARGIN;
+    let (lo, hi) = (cmin - margin, cmax + margin);
+
+    let mut poly = [DVec3::ZERO; MAX_POLYGON];
+    poly[..3].copy_from_slice(&verts);
+    let mut len = 3;
+    let mut scratch = [DVec3::ZERO; MAX_POLYGON];
+    for axis in 0..3 {
+        for (plane, keep_above) in [(lo[axis], true), (hi[axis], false)] {
+            let inside = |p: DVec3| {
+                if keep_above {
+                    p[axis] - plane
+                } else {
+                    plane - p[axis]
+                }
+            };
+            if poly[..len].iter().all(|&p| inside(p) >= 0.0) {
+                continue;
+            }
+            match clip_polygon(&poly[..len], &mut scratch, axis, plane, inside) {
+                Some(0) => return None,
+                Some(n) => {
+                    poly[..n].copy_from_slice(&scratch[..n]);
+                    len = n;
+                }
+                None => return fallback(tri, cell),
+            }
+        }
+    }
+
+    let (mut pmin, mut pmax) = (poly[0], poly[0]);
+    for &p in &poly[1..len] {
+        pmin = pmin.min(p);
+        pmax = pmax.max(p);
+    }
+    // The triangle's own box is exact: intersecting with it keeps flat triangles flat.
+    let exact = vertex_box(tri).intersection(*cell);
+    let mut b = Aabb::EMPTY;
+    for axis in 0..3 {
+        b.min[axis] = round_down(pmin[axis] - margin).max(exact.min[axis]);
+        b.max[axis] = round_up(pmax[axis] + margin).min(exact.max[axis]);
+    }
+    (!b.is_empty()).then_some(b)
+}
+
+/// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
+/// `out`. Crossing points get their `axis` coordinate set to `plane` exactly. Returns the new
+/// vertex count, or `None` if it would not fit `out`.
+fn clip_polygon(
+    poly: &[DVec3],
+    out: &mut [DVec3; MAX_POLYGON],
+    axis: usize,
+    plane: f64,
+    inside: impl Fn(DVec3) -> f64,
+) -> Option<usize> {
+    let mut n = 0;
+    let mut push = |p: DVec3| {
+        let slot = out.get_mut(n)?;
+        *slot = p;
+        n += 1;
+        Some(())
+    };
+    for (i, &a) in poly.iter().enumerate() {
+        let b = poly[(i + 1) % poly.len()];
+        let (da, db) = (inside(a), inside(b));
+        if da >= 0.0 {
+            push(a)?;
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let mut p = a + (b - a) * (da / (da - db));
+            p[axis] = plane;
+            push(p)?;
+        }
+    }
+    Some(n)
+}
+
+/// The triangle's box ∩ the cell: conservative when the clip cannot be trusted.
+fn fallback(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+    let b = vertex_box(tri).intersection(*cell);
+    (!b.is_empty()).then_some(b)
+}
+
+fn vertex_box(tri: &Triangle) -> Aabb {
+    Aabb::from_points([tri.v0, tri.v1, tri.v2])
+}
+
+/// The largest f32 `<= x`.
+fn round_down(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) > x {
+        next_toward_neg_inf(f)
+    } else {
+        f
+    }
+}
+
+/// The smallest f32 `>= x`.
+fn round_up(x: f64) -> f32 {
+    -round_down(-x)
+}
+
+/// The next f32 below finite `f` (`f32::next_down` is newer than the crate's MSRV).
+fn next_toward_neg_inf(f: f32) -> f32 {
+    let bits = f.to_bits();
+    if f == 0.0 {
+        -f32::from_bits(1)
+    } else if f > 0.0 {
+        f32::from_bits(bits - 1)
+    } else {
+        f32::from_bits(bits + 1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kdbeam_kernels::Vec3;
+
+    fn cell(min: [f32; 3], max: [f32; 3]) -> Aabb {
+        Aabb::new(Vec3::from(min), Vec3::from(max))
+    }
+
+    #[test]
+    fn diagonal_triangle_is_clipped_tighter_than_its_box() {
+        // The triangle x + y <= 1 (z = 0) against x >= 0.5: the part is x ∈ [0.5, 1],
+        // y ∈ [0, 0.5]. Tolerance: a few f32 ulps from the outward rounding.
+        let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let b = clipped_bounds(&tri, &cell([0.5, -1.0, -1.0], [2.0, 2.0, 1.0])).unwrap();
+        assert_eq!(b.min.x, 0.5);
+        assert!((b.max.y - 0.5).abs() < 1e-6 && b.max.y >= 0.5, "{b:?}");
+        assert_eq!((b.min.z, b.max.z), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_triangle_beside_the_cell_is_rejected_and_a_touching_one_is_flat() {
+        let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        // Inside the triangle's box but beyond its hypotenuse.
+        assert_eq!(
+            clipped_bounds(&tri, &cell([0.75, 0.75, -1.0], [1.0, 1.0, 1.0])),
+            None
+        );
+        let b = clipped_bounds(&tri, &cell([1.0, -1.0, -1.0], [2.0, 1.0, 1.0])).unwrap();
+        assert_eq!((b.min.x, b.max.x), (1.0, 1.0));
+    }
+
+    #[test]
+    fn rounding_is_outward() {
+        // 0.1f32 is just above 0.1.
+        assert_eq!(round_up(0.1), 0.1f32);
+        assert_eq!(round_down(0.1), next_toward_neg_inf(0.1f32));
+        assert!(f64::from(round_down(0.1)) <= 0.1 && f64::from(round_up(0.1)) >= 0.1);
+        assert_eq!(round_down(-0.0), 0.0);
+        assert!(next_toward_neg_inf(0.0) < 0.0 && next_toward_neg_inf(-1.0) < -1.0);
+    }
+}

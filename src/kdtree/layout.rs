@@ -1,0 +1,143 @@
+//! The depth-first output of a (sub)tree build: nodes, leaf records, leaf-ordered triangle ids,
+//! and the stitching of two subtrees built in parallel.
+
+use kdbeam_kernels::Aabb;
+
+use super::{LeafRecord, Node, MAX_NODE_INDEX};
+use crate::{Error, Result};
+
+/// Leaf record 0 of every tree: the record all empty leaves share.
+pub(super) const EMPTY_RECORD: LeafRecord = LeafRecord {
+    first: 0,
+    count: 0,
+    bounds: Aabb::EMPTY,
+};
+
+/// A subtree in depth-first order. Leaf nodes refer to record 0 (empty) or to `1 + i` for
+/// `records[i]`; record 0 itself is added by [`Layout::finish`].
+#[derive(Debug, Default)]
+pub(super) struct Layout {
+    nodes: Vec<Node>,
+    records: Vec<LeafRecord>,
+    ids: Vec<u32>,
+    max_depth: u32,
+}
+
+/// What [`Layout::finish`] returns.
+pub(super) struct FinishedLayout {
+    /// Nodes, root first.
+    pub nodes: Vec<Node>,
+    /// Leaf records, the shared empty one first.
+    pub leaves: Vec<LeafRecord>,
+    /// Mesh triangle ids in leaf order.
+    pub ids: Vec<u32>,
+    /// Depth of the deepest leaf.
+    pub max_depth: u32,
+}
+
+fn too_big(what: &str) -> Error {
+    Error::InvalidParameter {
+        name: "max_depth",
+        message: format!("the tree would need more {what} than its 32-bit layout holds; lower max_depth or ci_over_ct"),
+    }
+}
+
+impl Layout {
+    /// Appends an empty leaf at `depth`.
+    pub fn push_empty_leaf(&mut self, depth: u32) {
+        self.max_depth = self.max_depth.max(depth);
+        self.nodes.push(Node::leaf(0));
+    }
+
+    /// Appends a leaf at `depth` holding `ids` (in the order given) inside `bounds`.
+    pub fn push_leaf(&mut self, depth: u32, ids: &[u32], bounds: Aabb) -> Result<()> {
+        let record = u32::try_from(self.records.len() + 1)
+            .ok()
+            .filter(|&r| r <= MAX_NODE_INDEX)
+            .ok_or_else(|| too_big("leaves"))?;
+        let first = u32::try_from(self.ids.len()).map_err(|_| too_big("triangle references"))?;
+        let count = u32::try_from(ids.len()).map_err(|_| too_big("triangle references"))?;
+        first
+            .checked_add(count)
+            .ok_or_else(|| too_big("triangle references"))?;
+        self.max_depth = self.max_depth.max(depth);
+        self.ids.extend_from_slice(ids);
+        self.records.push(LeafRecord {
+            first,
+            count,
+            bounds,
+        });
+        self.nodes.push(Node::leaf(record));
+        Ok(())
+    }
+
+    /// Reserves the slot of an inner node whose below child follows; returns its index for
+    /// [`Layout::close_inner`].
+    pub fn open_inner(&mut self) -> usize {
+        self.nodes.push(Node::leaf(0));
+        self.nodes.len() - 1
+    }
+
+    /// Fills the inner node reserved at `at`: its above child is the next node appended.
+    pub fn close_inner(&mut self, at: usize, axis: usize, split: f32) -> Result<()> {
+        let above = u32::try_from(self.nodes.len())
+            .ok()
+            .filter(|&a| a <= MAX_NODE_INDEX)
+            .ok_or_else(|| too_big("nodes"))?;
+        self.nodes[at] = Node::inner(axis, split, above);
+        Ok(())
+    }
+
+    /// Appends subtree `other`, shifting its node, record and triangle indices.
+    pub fn append(&mut self, other: Layout) -> Result<()> {
+        let node_offset = u32::try_from(self.nodes.len()).map_err(|_| too_big("nodes"))?;
+        let record_offset = u32::try_from(self.records.len()).map_err(|_| too_big("leaves"))?;
+        let id_offset =
+            u32::try_from(self.ids.len()).map_err(|_| too_big("triangle references"))?;
+        let shift = |index: u32, offset: u32| {
+            index
+                .checked_add(offset)
+                .filter(|&i| i <= MAX_NODE_INDEX)
+                .ok_or_else(|| too_big("nodes"))
+        };
+        self.nodes.reserve(other.nodes.len());
+        for node in other.nodes {
+            self.nodes.push(if !node.is_leaf() {
+                Node::inner(
+                    node.axis(),
+                    node.split(),
+                    shift(node.above_child(), node_offset)?,
+                )
+            } else if node.leaf_record() == 0 {
+                node
+            } else {
+                Node::leaf(shift(node.leaf_record(), record_offset)?)
+            });
+        }
+        self.records.reserve(other.records.len());
+        for record in other.records {
+            let first = record
+                .first
+                .checked_add(id_offset)
+                .filter(|f| f.checked_add(record.count).is_some())
+                .ok_or_else(|| too_big("triangle references"))?;
+            self.records.push(LeafRecord { first, ..record });
+        }
+        self.ids.extend_from_slice(&other.ids);
+        self.max_depth = self.max_depth.max(other.max_depth);
+        Ok(())
+    }
+
+    /// The final arrays, with the shared empty record at index 0.
+    pub fn finish(self) -> FinishedLayout {
+        let mut leaves = Vec::with_capacity(self.records.len() + 1);
+        leaves.push(EMPTY_RECORD);
+        leaves.extend_from_slice(&self.records);
+        FinishedLayout {
+            nodes: self.nodes,
+            leaves,
+            ids: self.ids,
+            max_depth: self.max_depth,
+        }
+    }
+}

@@ -1,0 +1,748 @@
+//! Structural invariants of `KdTree::build`, checked against an independent f64 clipper:
+//! coverage (every triangle in every leaf whose cell it enters, in none it does not touch),
+//! tight and conservative leaf boxes, depth and leaf-size limits, statistics, parameter
+//! validation, and robustness on degenerate, flat, empty and far-from-origin meshes.
+//!
+//! The real-scene tests are named `real_scene_*`: they need the OBJ loader and the scenes in
+//! `$KDBEAM_SCENES` (default `<CARGO_MANIFEST_DIR>/../shared/scenes`), and are skipped, with a
+//! message, only when that directory is missing.
+
+use std::collections::BTreeSet;
+use std::path::PathBuf;
+
+use kdbeam::kdtree::LeafRecord;
+use kdbeam::kernels::{KsTriangle, Vec3};
+use kdbeam::{Aabb, BuildParams, Error, KdTree, Mesh, Triangle};
+
+// ---------------------------------------------------------------------------------------------
+// Meshes (small local generators: the scene generators belong to another module).
+
+/// A seeded 64-bit LCG giving floats in [0, 1).
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f32 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
+/// `n` random triangles of size up to `size` in the unit cube, shifted by `offset`.
+fn soup(n: usize, size: f32, offset: [f32; 3], seed: u64) -> Mesh {
+    let mut rng = Lcg(seed);
+    let mut positions = Vec::with_capacity(3 * n);
+    for _ in 0..n {
+        let c = [rng.next(), rng.next(), rng.next()];
+        for _ in 0..3 {
+            let mut p = [0.0; 3];
+            for k in 0..3 {
+                p[k] = offset[k] + c[k] + size * (rng.next() - 0.5);
+            }
+            positions.push(p);
+        }
+    }
+    Mesh::from_soup(&positions).unwrap()
+}
+
+/// An `n × n` grid of quads (two triangles each) in the plane z = 0: a flat mesh.
+fn grid(n: u32) -> Mesh {
+    let mut positions = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            positions.push([i as f32, j as f32, 0.0]);
+        }
+    }
+    let mut indices = Vec::new();
+    let at = |i: u32, j: u32| j * (n + 1) + i;
+    for j in 0..n {
+        for i in 0..n {
+            indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            indices.extend([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    Mesh::from_indexed(&positions, &indices).unwrap()
+}
+
+/// A UV sphere of radius `r` around `center`: `stacks × slices` quads, poles as fans.
+fn sphere(stacks: u32, slices: u32, r: f32, center: [f32; 3]) -> Mesh {
+    let mut positions = Vec::new();
+    for s in 0..=stacks {
+        let theta = std::f32::consts::PI * s as f32 / stacks as f32;
+        for l in 0..slices {
+            let phi = 2.0 * std::f32::consts::PI * l as f32 / slices as f32;
+            positions.push([
+                center[0] + r * theta.sin() * phi.cos(),
+                center[1] + r * theta.sin() * phi.sin(),
+                center[2] + r * theta.cos(),
+            ]);
+        }
+    }
+    let mut indices = Vec::new();
+    let at = |s: u32, l: u32| s * slices + l % slices;
+    for s in 0..stacks {
+        for l in 0..slices {
+            indices.extend([at(s, l), at(s + 1, l), at(s + 1, l + 1)]);
+            indices.extend([at(s, l), at(s + 1, l + 1), at(s, l + 1)]);
+        }
+    }
+    Mesh::from_indexed(&positions, &indices).unwrap()
+}
+
+fn params(ci_over_ct: f32) -> BuildParams {
+    BuildParams {
+        ci_over_ct,
+        ..BuildParams::default()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// An independent reference: the part of a triangle inside a box, in f64.
+
+type P = [f64; 3];
+
+/// The polygon `tri ∩ [lo, hi]` by Sutherland–Hodgman clipping (empty if they do not meet).
+fn clip(tri: &Triangle, lo: P, hi: P) -> Vec<P> {
+    let mut poly: Vec<P> = [tri.v0, tri.v1, tri.v2]
+        .iter()
+        .map(|v| [v.x as f64, v.y as f64, v.z as f64])
+        .collect();
+    for k in 0..3 {
+        for (plane, sign) in [(lo[k], 1.0), (hi[k], -1.0)] {
+            let d = |p: &P| sign * (p[k] - plane);
+            let mut out = Vec::new();
+            for (i, a) in poly.iter().enumerate() {
+                let b = &poly[(i + 1) % poly.len()];
+                if d(a) >= 0.0 {
+                    out.push(*a);
+                }
+                if (d(a) >= 0.0) != (d(b) >= 0.0) {
+                    let t = d(a) / (d(a) - d(b));
+                    let mut p = [0.0; 3];
+                    for m in 0..3 {
+                        p[m] = a[m] + t * (b[m] - a[m]);
+                    }
+                    p[k] = plane;
+                    out.push(p);
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                return poly;
+            }
+        }
+    }
+    poly
+}
+
+fn polygon_box(poly: &[P]) -> (P, P) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in poly {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
+fn f64s(v: Vec3) -> P {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+/// Tolerance for "touches" and "enters": 8 f32 ulps of the largest coordinate of the mesh.
+/// The builder rounds its clipped boxes outward by about one ulp, so a triangle within this
+/// distance of a cell may or may not be referenced by it; the f64 reference clip itself is
+/// exact to ~1e-16 relative, far below this.
+fn tolerance(mesh: &Mesh) -> f64 {
+    let magnitude = mesh
+        .positions()
+        .iter()
+        .fold(0.0f32, |m, p| m.max(p.abs().max_element()));
+    8.0 * f32::EPSILON as f64 * (magnitude as f64).max(1.0)
+}
+
+// ---------------------------------------------------------------------------------------------
+// The checker.
+
+/// One leaf found by walking the tree: its cell, record, depth.
+struct LeafVisit {
+    cell: Aabb,
+    record: LeafRecord,
+    depth: u32,
+}
+
+/// The tree walked from the root with cells, after checking node indices and the depth-first
+/// order: the leaves in node order, each leaf's index by node index, and for each inner node
+/// its depth and how many distinct triangles lie below it, counted up to `cap`.
+struct Walk {
+    leaves: Vec<LeafVisit>,
+    leaf_of_node: Vec<usize>,
+    inner: Vec<(u32, usize)>,
+}
+
+fn walk(tree: &KdTree, cap: usize) -> Result<Walk, String> {
+    /// Returns the distinct ids below `index` (at most `cap` of them) and the next node index.
+    fn visit(
+        tree: &KdTree,
+        w: &mut Walk,
+        cap: usize,
+        index: usize,
+        cell: Aabb,
+        depth: u32,
+    ) -> Result<(BTreeSet<u32>, usize), String> {
+        let node = *tree.nodes().get(index).ok_or("node index out of range")?;
+        if node.is_leaf() {
+            let record = *tree
+                .leaves()
+                .get(node.leaf_record() as usize)
+                .ok_or("leaf record out of range")?;
+            let ids = tree.leaf_triangles(&record).ids;
+            w.leaf_of_node[index] = w.leaves.len();
+            w.leaves.push(LeafVisit {
+                cell,
+                record,
+                depth,
+            });
+            return Ok((ids.iter().copied().take(cap).collect(), index + 1));
+        }
+        let (axis, split) = (node.axis(), node.split());
+        if !(split > cell.min[axis] && split < cell.max[axis]) {
+            return Err(format!(
+                "node {index}: split {split} not inside the cell {cell:?} on axis {axis}"
+            ));
+        }
+        let (mut below, mut above) = (cell, cell);
+        below.max[axis] = split;
+        above.min[axis] = split;
+        let (mut ids, end) = visit(tree, w, cap, index + 1, below, depth + 1)?;
+        if node.above_child() as usize != end {
+            return Err(format!(
+                "node {index}: above child {} is not right after the below subtree ({end})",
+                node.above_child()
+            ));
+        }
+        let (above_ids, end) = visit(tree, w, cap, end, above, depth + 1)?;
+        ids.extend(above_ids);
+        while ids.len() > cap {
+            ids.pop_last();
+        }
+        w.inner.push((depth, ids.len()));
+        Ok((ids, end))
+    }
+    let mut w = Walk {
+        leaves: Vec::new(),
+        leaf_of_node: vec![usize::MAX; tree.nodes().len()],
+        inner: Vec::new(),
+    };
+    let (_, end) = visit(tree, &mut w, cap, 0, tree.bounds(), 0)?;
+    if end != tree.nodes().len() {
+        return Err(format!("{} nodes, {end} reachable", tree.nodes().len()));
+    }
+    Ok(w)
+}
+
+/// The leaves (indices into `w.leaves`) whose cells come within `tol` of box `b`.
+fn leaves_near(tree: &KdTree, w: &Walk, b: &Aabb, tol: f64) -> Vec<usize> {
+    let mut found = Vec::new();
+    let mut stack = vec![(0usize, tree.bounds())];
+    while let Some((index, cell)) = stack.pop() {
+        let near = (0..3).all(|k| {
+            b.max[k] as f64 >= cell.min[k] as f64 - tol
+                && b.min[k] as f64 <= cell.max[k] as f64 + tol
+        });
+        if !near {
+            continue;
+        }
+        let node = tree.nodes()[index];
+        if node.is_leaf() {
+            found.push(w.leaf_of_node[index]);
+            continue;
+        }
+        let (mut below, mut above) = (cell, cell);
+        below.max[node.axis()] = node.split();
+        above.min[node.axis()] = node.split();
+        stack.push((index + 1, below));
+        stack.push((node.above_child() as usize, above));
+    }
+    found
+}
+
+/// Checks every invariant of `tree` built from `mesh` with `params`.
+fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String> {
+    let tol = tolerance(mesh);
+    let w = walk(tree, params.leaf_size as usize + 1)?;
+    let leaves = &w.leaves;
+    if tree.bounds() != mesh.bounds() {
+        return Err("root box is not the mesh's box".into());
+    }
+    if tree.mesh_triangle_count() != mesh.triangle_count() {
+        return Err("mesh triangle count".into());
+    }
+
+    // (c) depth limit and leaf-size rule.
+    let limit = params.depth_limit(mesh.triangle_count());
+    if let Some(deep) = leaves.iter().find(|l| l.depth > limit) {
+        return Err(format!("leaf at depth {} > limit {limit}", deep.depth));
+    }
+    if let Some((depth, count)) = w
+        .inner
+        .iter()
+        .find(|&&(_, count)| count <= params.leaf_size as usize)
+    {
+        return Err(format!(
+            "inner node at depth {depth} over only {count} triangles (leaf_size {})",
+            params.leaf_size
+        ));
+    }
+
+    // Leaf contents: sorted ids, exact triangles, (b) boxes, (a) no reference to a triangle
+    // that does not come within `tol` of the cell.
+    let mut referenced_by: Vec<Vec<usize>> = vec![Vec::new(); mesh.triangle_count()];
+    for (leaf_index, leaf) in leaves.iter().enumerate() {
+        let content = tree.leaf_triangles(&leaf.record);
+        if content.ids.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(format!(
+                "leaf {leaf_index}: ids not strictly ascending {:?}",
+                content.ids
+            ));
+        }
+        let (cell_lo, cell_hi) = (f64s(leaf.cell.min), f64s(leaf.cell.max));
+        let mut union = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+        for (i, &id) in content.ids.iter().enumerate() {
+            let tri = mesh.triangle(id as usize);
+            if content.triangles[i] != tri || content.ks[i] != KsTriangle::from(&tri) {
+                return Err(format!(
+                    "leaf {leaf_index}: triangle {id} not laid out as in the mesh"
+                ));
+            }
+            referenced_by[id as usize].push(leaf_index);
+            let grown = clip(&tri, cell_lo.map(|x| x - tol), cell_hi.map(|x| x + tol));
+            if grown.is_empty() {
+                return Err(format!(
+                    "leaf {leaf_index} (cell {:?}) references triangle {id} {tri:?}, which does \
+                     not touch it",
+                    leaf.cell
+                ));
+            }
+            let part = clip(&tri, cell_lo, cell_hi);
+            if !part.is_empty() {
+                let (lo, hi) = polygon_box(&part);
+                for k in 0..3 {
+                    union.0[k] = union.0[k].min(lo[k]);
+                    union.1[k] = union.1[k].max(hi[k]);
+                }
+            }
+        }
+        let b = leaf.record.bounds;
+        if content.ids.is_empty() {
+            if !b.is_empty() {
+                return Err(format!("empty leaf {leaf_index} with a box {b:?}"));
+            }
+            continue;
+        }
+        if !leaf.cell.contains_box(&b) || b.is_empty() {
+            return Err(format!(
+                "leaf {leaf_index}: box {b:?} not inside the cell {:?}",
+                leaf.cell
+            ));
+        }
+        // Conservative: holds every clipped part (up to the reference clip's f64 rounding,
+        // 1e-12 relative, below an f32 ulp). Tight: no more than `tol` larger than their union.
+        let slack = tol * 1e-5;
+        for k in 0..3 {
+            let (lo, hi) = (b.min[k] as f64, b.max[k] as f64);
+            if union.0[k] <= union.1[k]
+                && (lo > union.0[k] + slack
+                    || hi < union.1[k] - slack
+                    || lo < union.0[k] - tol
+                    || hi > union.1[k] + tol)
+            {
+                return Err(format!(
+                    "leaf {leaf_index}: box {b:?} vs clipped parts {union:?} on axis {k}"
+                ));
+            }
+        }
+    }
+
+    // (a) every triangle is referenced by every leaf whose interior its part enters by more
+    // than `tol` (on each axis where the cell has thickness).
+    for (id, refs) in referenced_by.iter().enumerate() {
+        let tri = mesh.triangle(id);
+        let tri_box = Aabb::from_points([tri.v0, tri.v1, tri.v2]);
+        for leaf_index in leaves_near(tree, &w, &tri_box, tol) {
+            if refs.contains(&leaf_index) {
+                continue;
+            }
+            let leaf = &leaves[leaf_index];
+            let (cell_lo, cell_hi) = (f64s(leaf.cell.min), f64s(leaf.cell.max));
+            let part = clip(&tri, cell_lo, cell_hi);
+            if part.is_empty() {
+                continue;
+            }
+            let (lo, hi) = polygon_box(&part);
+            let enters = (0..3).all(|k| {
+                cell_lo[k] == cell_hi[k] || (hi[k] > cell_lo[k] + tol && lo[k] < cell_hi[k] - tol)
+            });
+            if enters {
+                return Err(format!(
+                    "triangle {id} {tri:?} enters leaf {leaf_index} (cell {:?}) but is not in it",
+                    leaf.cell
+                ));
+            }
+        }
+    }
+
+    // (d) statistics agree with a recount.
+    let s = tree.stats();
+    let nonempty = leaves.iter().filter(|l| l.record.count > 0).count();
+    let refs: usize = leaves.iter().map(|l| l.record.count as usize).sum();
+    let expected = (
+        mesh.triangle_count(),
+        tree.nodes().len(),
+        leaves.len(),
+        nonempty,
+        refs,
+        leaves.iter().map(|l| l.depth).max().unwrap_or(0),
+        tree.nodes().len() * 8
+            + tree.leaves().len() * size_of::<LeafRecord>()
+            + refs * (size_of::<Triangle>() + size_of::<KsTriangle>() + 4),
+    );
+    let got = (
+        s.triangles,
+        s.nodes,
+        s.leaves,
+        s.nonempty_leaves,
+        s.triangle_refs,
+        s.max_depth,
+        s.bytes,
+    );
+    if got != expected {
+        return Err(format!("stats {got:?} != recount {expected:?}"));
+    }
+    if tree.leaves().len() != nonempty + 1 {
+        return Err(format!(
+            "{} leaf records for {nonempty} non-empty leaves (+1 shared empty)",
+            tree.leaves().len()
+        ));
+    }
+    Ok(())
+}
+
+fn build_and_check(mesh: &Mesh, params: &BuildParams) -> KdTree {
+    let tree = KdTree::build(mesh, params).unwrap();
+    if let Err(e) = check(mesh, params, &tree) {
+        panic!("{params:?}: {e}\n{}", tree.stats());
+    }
+    tree
+}
+
+// ---------------------------------------------------------------------------------------------
+// Generated meshes.
+
+#[test]
+fn soup_grid_and_sphere_satisfy_every_invariant_for_each_cost_ratio() {
+    let meshes = [
+        ("soup", soup(1500, 0.08, [0.0; 3], 1)),
+        ("large-triangle soup", soup(300, 0.6, [0.0; 3], 2)),
+        ("grid", grid(24)),
+        ("sphere", sphere(16, 32, 1.0, [0.0; 3])),
+    ];
+    for (name, mesh) in &meshes {
+        let mut nodes = Vec::new();
+        for ci in [0.1, 1.0, 10.0] {
+            let tree = build_and_check(mesh, &params(ci));
+            println!("{name} ci/ct {ci}: {}", tree.stats());
+            nodes.push(tree.stats().nodes);
+        }
+        // A larger intersection cost makes splitting pay: the tree never shrinks, and grows
+        // from 0.1 to 10.
+        assert!(
+            nodes[0] <= nodes[1] && nodes[1] <= nodes[2] && nodes[0] < nodes[2],
+            "{name}: nodes {nodes:?}"
+        );
+    }
+}
+
+#[test]
+fn leaf_size_depth_limit_and_empty_bonus_are_respected() {
+    let mesh = soup(800, 0.1, [0.0; 3], 3);
+    for p in [
+        BuildParams {
+            leaf_size: 8,
+            ci_over_ct: 10.0,
+            ..BuildParams::default()
+        },
+        BuildParams {
+            max_depth: Some(3),
+            ci_over_ct: 10.0,
+            ..BuildParams::default()
+        },
+        BuildParams {
+            max_depth: Some(0),
+            ..BuildParams::default()
+        },
+        BuildParams {
+            empty_bonus: 0.0,
+            ..BuildParams::default()
+        },
+        BuildParams {
+            empty_bonus: 0.95,
+            ..BuildParams::default()
+        },
+    ] {
+        let tree = build_and_check(&mesh, &p);
+        if p.max_depth == Some(0) {
+            assert_eq!(tree.nodes().len(), 1);
+        }
+    }
+}
+
+#[test]
+fn sah_separates_distant_clusters_and_cuts_off_empty_space() {
+    // Two clusters at opposite corners of a big box: no leaf may hold triangles of both, and
+    // the leaf boxes must be far smaller than the root.
+    let mut mesh = soup(100, 0.05, [0.0; 3], 4);
+    mesh.append(&soup(100, 0.05, [99.0, 99.0, 99.0], 5))
+        .unwrap();
+    let tree = build_and_check(&mesh, &BuildParams::default());
+    for leaf in tree.leaves() {
+        let ids = tree.leaf_triangles(leaf).ids;
+        assert!(
+            ids.iter().all(|&i| i < 100) || ids.iter().all(|&i| i >= 100),
+            "mixed leaf {ids:?}"
+        );
+        if leaf.count > 0 {
+            assert!(leaf.bounds.extent().max_element() <= 1.1, "{leaf:?}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (e) Parameters.
+
+#[test]
+fn invalid_parameters_are_rejected_by_name() {
+    let mesh = soup(10, 0.1, [0.0; 3], 6);
+    let d = BuildParams::default();
+    let cases = [
+        (
+            "ci_over_ct",
+            BuildParams {
+                ci_over_ct: 0.0,
+                ..d
+            },
+        ),
+        (
+            "ci_over_ct",
+            BuildParams {
+                ci_over_ct: -1.0,
+                ..d
+            },
+        ),
+        (
+            "ci_over_ct",
+            BuildParams {
+                ci_over_ct: f32::NAN,
+                ..d
+            },
+        ),
+        (
+            "ci_over_ct",
+            BuildParams {
+                ci_over_ct: f32::INFINITY,
+                ..d
+            },
+        ),
+        (
+            "empty_bonus",
+            BuildParams {
+                empty_bonus: 1.0,
+                ..d
+            },
+        ),
+        (
+            "empty_bonus",
+            BuildParams {
+                empty_bonus: -0.1,
+                ..d
+            },
+        ),
+        (
+            "empty_bonus",
+            BuildParams {
+                empty_bonus: f32::NAN,
+                ..d
+            },
+        ),
+        (
+            "max_depth",
+            BuildParams {
+                max_depth: Some(65),
+                ..d
+            },
+        ),
+        ("leaf_size", BuildParams { leaf_size: 0, ..d }),
+    ];
+    for (field, p) in cases {
+        match KdTree::build(&mesh, &p) {
+            Err(Error::InvalidParameter { name, .. }) => assert_eq!(name, field, "{p:?}"),
+            other => panic!("{p:?}: expected InvalidParameter({field}), got {other:?}"),
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (f) Robustness.
+
+#[test]
+fn empty_mesh_is_one_empty_leaf() {
+    let mesh = Mesh::default();
+    let tree = build_and_check(&mesh, &BuildParams::default());
+    assert_eq!(tree.nodes().len(), 1);
+    assert!(tree.nodes()[0].is_leaf());
+    assert!(tree.bounds().is_empty());
+    assert_eq!(tree.stats().nonempty_leaves, 0);
+}
+
+#[test]
+fn single_triangle_is_one_leaf_with_its_box() {
+    let mesh = Mesh::from_soup(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 2.0, 0.5]]).unwrap();
+    let tree = build_and_check(&mesh, &params(10.0));
+    assert_eq!(tree.nodes().len(), 1);
+    assert_eq!(tree.leaves()[1].bounds, mesh.bounds());
+}
+
+#[test]
+fn degenerate_triangles_build_and_stay_referenced() {
+    // Points, segments (collinear vertices) and repeated vertices, mixed with real triangles.
+    let mut positions = Vec::new();
+    let mut rng = Lcg(8);
+    for i in 0..300 {
+        let p = [rng.next(), rng.next(), rng.next()];
+        let q = [rng.next(), rng.next(), rng.next()];
+        let mid = [0, 1, 2].map(|k| 0.5 * (p[k] + q[k]));
+        match i % 3 {
+            0 => positions.extend([p, p, p]),
+            1 => positions.extend([p, mid, q]),
+            _ => positions.extend([p, q, [q[0], p[1], rng.next()]]),
+        }
+    }
+    let mesh = Mesh::from_soup(&positions).unwrap();
+    for ci in [0.1, 1.0, 10.0] {
+        let tree = build_and_check(&mesh, &params(ci));
+        let ids: BTreeSet<u32> = tree
+            .leaves()
+            .iter()
+            .flat_map(|l| tree.leaf_triangles(l).ids.iter().copied())
+            .collect();
+        assert_eq!(
+            ids.len(),
+            mesh.triangle_count(),
+            "every triangle in some leaf"
+        );
+    }
+}
+
+#[test]
+fn all_vertices_equal_is_one_leaf() {
+    let mesh = Mesh::from_soup(&[[3.0, -2.0, 1.0]; 30]).unwrap();
+    let tree = build_and_check(&mesh, &params(10.0));
+    assert_eq!(tree.nodes().len(), 1);
+    assert_eq!(tree.leaves()[1].count, 10);
+}
+
+#[test]
+fn flat_meshes_build_on_each_axis() {
+    // The grid lies in z = 0; rotate it into x = 0 and y = 0 as well, and add a flat segment
+    // mesh (zero thickness on two axes).
+    let g = grid(12);
+    for perm in [[0, 1, 2], [2, 0, 1], [1, 2, 0]] {
+        let positions: Vec<Vec3> = g
+            .positions()
+            .iter()
+            .map(|p| Vec3::new(p[perm[0]], p[perm[1]], p[perm[2]]))
+            .collect();
+        let mesh = Mesh::from_faces(positions, g.faces().to_vec()).unwrap();
+        for ci in [0.1, 1.0, 10.0] {
+            let tree = build_and_check(&mesh, &params(ci));
+            assert!(tree.stats().nodes > 1, "a flat grid is still split");
+        }
+    }
+    let line: Vec<[f32; 3]> = (0..60).map(|i| [i as f32 / 3.0, 0.0, 0.0]).collect();
+    build_and_check(&Mesh::from_soup(&line).unwrap(), &params(10.0));
+}
+
+#[test]
+fn duplicated_triangles_build() {
+    let one = soup(40, 0.2, [0.0; 3], 9);
+    let mut mesh = one.clone();
+    for _ in 0..20 {
+        mesh.append(&one).unwrap();
+    }
+    for ci in [0.1, 1.0, 10.0] {
+        build_and_check(&mesh, &params(ci));
+    }
+}
+
+#[test]
+fn huge_offsets_build() {
+    // DESIGN.md's leak-test sphere far from the origin, and a soup 1e5 away.
+    let center = [148376.0, 1234.0, -223423.0];
+    for ci in [0.1, 1.0, 10.0] {
+        build_and_check(&sphere(12, 24, 50.0, center), &params(ci));
+        build_and_check(&soup(500, 0.05, [1e5, -1e5, 1e5], 10), &params(ci));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Real scenes (need the OBJ loader; fail with the placeholder loader until it lands).
+
+fn scenes_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("KDBEAM_SCENES")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"));
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!(
+            "real_scene_*: skipped, no scene directory {}",
+            dir.display()
+        );
+        None
+    }
+}
+
+fn real_scene(relative: &str) {
+    let Some(dir) = scenes_dir() else { return };
+    let path = dir.join(relative);
+    let mesh = kdbeam::scene::load_obj(&path)
+        .unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
+    for ci in [1.0, 10.0] {
+        let tree = build_and_check(&mesh, &params(ci));
+        println!("{relative} ci/ct {ci}: {}", tree.stats());
+    }
+}
+
+#[test]
+fn real_scene_bunny() {
+    real_scene("bunny/stanford-bunny.obj");
+}
+
+#[test]
+fn real_scene_sponza() {
+    real_scene("sponza_dabrovic/sponza.obj.gz");
+}
+
+#[test]
+fn real_scene_dragon() {
+    real_scene("dragon_100k/dragon.obj");
+}
+
+#[test]
+fn real_scene_killeroo() {
+    real_scene("killeroo/killeroo_cage.obj");
+}
