@@ -15,18 +15,27 @@ fn scenes() -> Vec<(String, Mesh)> {
     let mut out = Vec::new();
     for name in ["bunny", "sponza", "dragon"] {
         if let Some(path) = scene::shared_scene(name) {
-            out.push((name.to_string(), scene::load_obj(path).expect("shared scene loads")));
+            out.push((
+                name.to_string(),
+                scene::load_obj(path).expect("shared scene loads"),
+            ));
         }
     }
     if out.is_empty() {
         eprintln!("shared scenes not found: measuring builtin:default only");
-        out.push(("builtin:default".into(), procedural::builtin("default").expect("built-in")));
+        out.push((
+            "builtin:default".into(),
+            procedural::builtin("default").expect("built-in"),
+        ));
     }
     out
 }
 
 fn primary(c: &mut Criterion) {
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
     for (name, mesh) in scenes() {
         let tree = KdTree::build(&mesh, &BuildParams::default()).expect("tree");
         let camera = Camera::standard(&tree.bounds(), SIZE, SIZE);
@@ -40,7 +49,10 @@ fn primary(c: &mut Criterion) {
         });
         for isa in Isa::available() {
             for shape in [PacketShape::P2x2, PacketShape::P4x4, PacketShape::P8x8] {
-                let t = Tracer::new(&tree).with_isa(isa).expect("available").with_packet(shape);
+                let t = Tracer::new(&tree)
+                    .with_isa(isa)
+                    .expect("available")
+                    .with_packet(shape);
                 g.bench_with_input(BenchmarkId::new(isa.name(), shape.len()), &t, |b, t| {
                     b.iter(|| pool.install(|| trace_primary(t, &camera, &|_| {}).counters.tests))
                 });

@@ -9,8 +9,8 @@ pub mod scene;
 pub mod trace;
 
 pub use error::{Error, Result};
-pub use kdbeam_kernels as kernels;
 pub use glam::Vec3;
+pub use kdbeam_kernels as kernels;
 pub use kdbeam_kernels::{Aabb, Hit, HitPacket, Isa, PacketShape, Ray, RayPacket, Triangle};
 pub use kdtree::{BuildParams, BuildStats, KdTree};
 pub use scene::Mesh;

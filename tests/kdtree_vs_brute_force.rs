@@ -18,17 +18,21 @@
 
 mod common;
 
+use kdbeam::kernels::intersect::oracle::OracleRay;
 use kdbeam::render::random_rays;
 use kdbeam::trace::reference::{brute_force, kd_oracle, ReferenceHit};
 use kdbeam::{BuildParams, Intersector, Isa, KdTree, Mesh, Ray, Tracer};
-use kdbeam::kernels::intersect::oracle::OracleRay;
 use rayon::prelude::*;
 
 const RAYS_PER_SET: u32 = 320; // 320 × 320 = 102,400 primary rays and as many random ones.
 
 fn ray_sets(mesh: &Mesh) -> Vec<Ray> {
     let mut rays = common::primary_rays(mesh, RAYS_PER_SET, RAYS_PER_SET);
-    rays.extend(random_rays(&mesh.bounds(), (RAYS_PER_SET * RAYS_PER_SET) as usize, 42));
+    rays.extend(random_rays(
+        &mesh.bounds(),
+        (RAYS_PER_SET * RAYS_PER_SET) as usize,
+        42,
+    ));
     rays
 }
 
@@ -37,9 +41,19 @@ fn check_scene(name: &str, mesh: &Mesh) {
     let truth: Vec<Option<ReferenceHit>> = rays.par_iter().map(|r| brute_force(mesh, r)).collect();
     let diag = mesh.bounds().extent().length() as f64;
     let hits = truth.iter().filter(|h| h.is_some()).count();
-    assert!(hits > 0 || mesh.is_empty(), "{name}: no ray hits anything: the test would prove nothing");
+    assert!(
+        hits > 0 || mesh.is_empty(),
+        "{name}: no ray hits anything: the test would prove nothing"
+    );
     for ci in [0.1, 1.0, 10.0] {
-        let tree = KdTree::build(mesh, &BuildParams { ci_over_ct: ci, ..Default::default() }).unwrap();
+        let tree = KdTree::build(
+            mesh,
+            &BuildParams {
+                ci_over_ct: ci,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         let structural: Vec<usize> = rays
             .par_iter()
             .zip(&truth)
@@ -57,11 +71,18 @@ fn check_scene(name: &str, mesh: &Mesh) {
             truth[structural[0]]
         );
         for intersector in Intersector::ALL {
-            let tracer = Tracer::new(&tree).with_isa(Isa::Scalar).unwrap().with_intersector(intersector);
+            let tracer = Tracer::new(&tree)
+                .with_isa(Isa::Scalar)
+                .unwrap()
+                .with_intersector(intersector);
             let (mut edge_ties, mut grazing, mut bad) = (0usize, 0usize, Vec::new());
             for (i, (r, want)) in rays.iter().zip(&truth).enumerate() {
                 let got = tracer.intersect(r);
-                assert_eq!(got.is_hit(), tracer.occluded(r), "{name}: any hit disagrees with closest hit on ray {i}");
+                assert_eq!(
+                    got.is_hit(),
+                    tracer.occluded(r),
+                    "{name}: any hit disagrees with closest hit on ray {i}"
+                );
                 match (got.is_hit(), want) {
                     (false, None) => {}
                     (true, Some(w)) => {
@@ -73,7 +94,11 @@ fn check_scene(name: &str, mesh: &Mesh) {
                         } else {
                             // Is the f32 pick also hit by the oracle at the same t? Then it is an edge tie.
                             let tri = mesh.triangle(got.triangle as usize);
-                            match OracleRay::new(r).intersect(&tri, f64::from(r.tmin), f64::INFINITY) {
+                            match OracleRay::new(r).intersect(
+                                &tri,
+                                f64::from(r.tmin),
+                                f64::INFINITY,
+                            ) {
                                 Some(h) if (h.t - w.t).abs() <= tol => edge_ties += 1,
                                 _ => grazing += 1,
                             }
@@ -87,7 +112,11 @@ fn check_scene(name: &str, mesh: &Mesh) {
                 rays.len(),
                 bad.len()
             );
-            assert!(bad.is_empty(), "{name} ci={ci} {intersector:?}: t out of tolerance: {:?}", &bad[..bad.len().min(5)]);
+            assert!(
+                bad.is_empty(),
+                "{name} ci={ci} {intersector:?}: t out of tolerance: {:?}",
+                &bad[..bad.len().min(5)]
+            );
             // A ray grazing a silhouette edge may be decided differently in f32 and f64; such
             // rays are rare (measured: well under 1 in 10^4), a tree bug would show far more.
             assert!(

@@ -10,16 +10,25 @@ mod common;
 
 use kdbeam::render::random_rays;
 use kdbeam::scene::rng::Rng;
-use kdbeam::{BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, PacketShape, Ray, RayPacket, Tracer};
+use kdbeam::{
+    BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, PacketShape, Ray, RayPacket, Tracer,
+};
 
 fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
     let mut compared = 0;
     for intersector in Intersector::ALL {
-        let scalar = Tracer::new(tree).with_isa(Isa::Scalar).unwrap().with_intersector(intersector);
+        let scalar = Tracer::new(tree)
+            .with_isa(Isa::Scalar)
+            .unwrap()
+            .with_intersector(intersector);
         let expected: Vec<Hit> = rays.iter().map(|r| scalar.intersect(r)).collect();
         let expected_occ: Vec<bool> = rays.iter().map(|r| scalar.occluded(r)).collect();
         for (i, r) in rays.iter().enumerate() {
-            assert_eq!(expected[i].is_hit(), expected_occ[i], "{name}: any hit disagrees with closest hit on {r:?}");
+            assert_eq!(
+                expected[i].is_hit(),
+                expected_occ[i],
+                "{name}: any hit disagrees with closest hit on {r:?}"
+            );
         }
         for isa in Isa::available() {
             for shape in PacketShape::ALL {
@@ -29,7 +38,12 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                 for (c, chunk) in rays.chunks(shape.len()).enumerate() {
                     let p = RayPacket::from_rays(chunk);
                     // Every third packet has random inactive lanes.
-                    let active = if c % 3 == 2 { (u64::from(rng.next_u32()) << 32 | u64::from(rng.next_u32())) & p.full_mask() } else { p.full_mask() };
+                    let active = if c % 3 == 2 {
+                        (u64::from(rng.next_u32()) << 32 | u64::from(rng.next_u32()))
+                            & p.full_mask()
+                    } else {
+                        p.full_mask()
+                    };
                     tracer.intersect_packet(&p, active, &mut hp);
                     let occ = tracer.occluded_packet(&p, active);
                     for j in 0..chunk.len() {
@@ -43,7 +57,11 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                             "{name} {isa} {shape:?} {intersector:?}: ray {k} {:?}: packet {got:?}, scalar {want:?}",
                             chunk[j]
                         );
-                        assert_eq!(occ >> j & 1 != 0, on && expected_occ[k], "{name} {isa} {shape:?} {intersector:?}: occluded, ray {k}");
+                        assert_eq!(
+                            occ >> j & 1 != 0,
+                            on && expected_occ[k],
+                            "{name} {isa} {shape:?} {intersector:?}: occluded, ray {k}"
+                        );
                         compared += 1;
                     }
                 }
@@ -76,7 +94,14 @@ fn packets_equal_scalar_on_shared_scenes() {
     let mut total = 0;
     for (name, mesh) in scenes {
         for ci in [1.0, 10.0] {
-            let tree = KdTree::build(&mesh, &BuildParams { ci_over_ct: ci, ..Default::default() }).unwrap();
+            let tree = KdTree::build(
+                &mesh,
+                &BuildParams {
+                    ci_over_ct: ci,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
             let mut rays = common::primary_rays(&mesh, 64, 64);
             rays.extend(random_rays(&mesh.bounds(), 2048, 5));
             rays.extend(common::adversarial_rays(&mesh, 2048, 13));

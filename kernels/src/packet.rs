@@ -20,8 +20,12 @@ pub enum PacketShape {
 
 impl PacketShape {
     /// Every shape, smallest first.
-    pub const ALL: [PacketShape; 4] =
-        [PacketShape::P2x2, PacketShape::P4x2, PacketShape::P4x4, PacketShape::P8x8];
+    pub const ALL: [PacketShape; 4] = [
+        PacketShape::P2x2,
+        PacketShape::P4x2,
+        PacketShape::P4x4,
+        PacketShape::P8x8,
+    ];
 
     /// Tile width in pixels.
     pub const fn width(self) -> usize {
@@ -79,7 +83,10 @@ pub struct RayPacket {
 impl RayPacket {
     /// A packet of the rays in `rays`; panics if there are more than 64.
     pub fn from_rays(rays: &[Ray]) -> Self {
-        assert!(rays.len() <= MAX_PACKET_RAYS, "a packet holds at most 64 rays");
+        assert!(
+            rays.len() <= MAX_PACKET_RAYS,
+            "a packet holds at most 64 rays"
+        );
         let mut p = RayPacket {
             org: [[0.0; MAX_PACKET_RAYS]; 3],
             dir: [[0.0; MAX_PACKET_RAYS]; 3],
@@ -169,6 +176,11 @@ impl HitPacket {
     /// The hit of ray `i`. Panics if `i >= 64`.
     #[inline]
     pub fn hit(&self, i: usize) -> Hit {
-        Hit { t: self.t[i], u: self.u[i], v: self.v[i], triangle: self.triangle[i] }
+        Hit {
+            t: self.t[i],
+            u: self.u[i],
+            v: self.v[i],
+            triangle: self.triangle[i],
+        }
     }
 }

@@ -44,6 +44,8 @@ impl Camera {
 
     /// Every primary ray, row by row.
     pub fn rays(&self) -> Vec<Ray> {
-        (0..self.height).flat_map(|y| (0..self.width).map(move |x| self.ray(x, y))).collect()
+        (0..self.height)
+            .flat_map(|y| (0..self.width).map(move |x| self.ray(x, y)))
+            .collect()
     }
 }

@@ -19,7 +19,11 @@ pub struct Image {
 impl Image {
     /// A black image.
     pub fn new(width: u32, height: u32) -> Self {
-        Image { width, height, rgb: vec![0; 3 * width as usize * height as usize] }
+        Image {
+            width,
+            height,
+            rgb: vec![0; 3 * width as usize * height as usize],
+        }
     }
 
     /// Sets pixel `(x, y)` (row `y` from the top) to linear colour `c`, gamma-encoded (sRGB
@@ -50,7 +54,10 @@ impl Image {
     /// # Errors
     /// [`Error::Io`] when the file cannot be written.
     pub fn write_png(&self, path: &Path) -> Result<()> {
-        let io = |source| Error::Io { path: path.to_path_buf(), source };
+        let io = |source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        };
         let file = std::fs::File::create(path).map_err(io)?;
         let mut encoder = png::Encoder::new(BufWriter::new(file), self.width, self.height);
         encoder.set_color(png::ColorType::Rgb);

@@ -1,8 +1,8 @@
 //! Rendering: the standard camera, packets from pixel tiles, shading, heat maps and PNGs.
 
 mod camera;
-mod rays;
 mod image;
+mod rays;
 mod shade;
 
 use std::time::Instant;
@@ -12,8 +12,8 @@ use kdbeam_kernels::{Hit, HitPacket, Ray, RayPacket};
 use rayon::prelude::*;
 
 pub use camera::Camera;
-pub use rays::{random_rays, ray_set, RaySet};
 pub use image::{heat_color, Image};
+pub use rays::{random_rays, ray_set, RaySet};
 pub use shade::shade;
 
 use crate::trace::{PacketCounters, Tracer};
@@ -67,7 +67,11 @@ impl Frame {
 /// Traces the primary rays of `camera` through `tracer` in packets of pixel tiles of the
 /// tracer's packet shape, on all threads of the current rayon pool. `progress` is called with
 /// the number of pixel rows finished, as they finish.
-pub fn trace_primary(tracer: &Tracer<'_>, camera: &Camera, progress: &(dyn Fn(u64) + Sync)) -> Frame {
+pub fn trace_primary(
+    tracer: &Tracer<'_>,
+    camera: &Camera,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Frame {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let (tw, th) = (tracer.packet().width(), tracer.packet().height());
     let mut hits = vec![Hit::NONE; w * h];
@@ -97,21 +101,28 @@ pub fn trace_primary(tracer: &Tracer<'_>, camera: &Camera, progress: &(dyn Fn(u6
     };
     let start = Instant::now();
     #[cfg(feature = "parallel")]
-    let per_band: Vec<PacketCounters> =
-        hits.par_chunks_mut(w * th).enumerate().map(band).collect();
+    let per_band: Vec<PacketCounters> = hits.par_chunks_mut(w * th).enumerate().map(band).collect();
     #[cfg(not(feature = "parallel"))]
     let per_band: Vec<PacketCounters> = hits.chunks_mut(w * th).enumerate().map(band).collect();
     let seconds = start.elapsed().as_secs_f64();
     let mut counters = PacketCounters::default();
     per_band.iter().for_each(|c| counters.add(c));
-    Frame { camera: *camera, hits, counters, seconds }
+    Frame {
+        camera: *camera,
+        hits,
+        counters,
+        seconds,
+    }
 }
 
 /// Ray–triangle tests per pixel on the scalar path, as a heat map on a log scale from 1 to the
 /// largest count in the image.
 pub fn heatmap(tracer: &Tracer<'_>, camera: &Camera) -> Image {
     let rays: Vec<Ray> = camera.rays();
-    let tests: Vec<u64> = rays.iter().map(|r| tracer.intersect_counted(r).1.tests).collect();
+    let tests: Vec<u64> = rays
+        .iter()
+        .map(|r| tracer.intersect_counted(r).1.tests)
+        .collect();
     let max = tests.iter().copied().max().unwrap_or(0).max(1) as f32;
     let mut img = Image::new(camera.width, camera.height);
     for (i, &t) in tests.iter().enumerate() {

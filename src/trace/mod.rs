@@ -10,8 +10,8 @@ mod single;
 mod stream;
 
 use kdbeam_kernels::intersect::watertight::WatertightRay;
-use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 use kdbeam_kernels::Hit;
+use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
 pub use packet::PacketCounters;
 pub use single::RayCounters;
@@ -114,7 +114,12 @@ impl<'t> Tracer<'t> {
     /// `KDBEAM_ISA` names when that is valid and available.
     pub fn new(tree: &'t KdTree) -> Self {
         let isa = isa_from_env().ok().flatten().unwrap_or_else(Isa::detect);
-        Tracer { tree, intersector: Intersector::default(), isa, packet: PacketShape::P8x8 }
+        Tracer {
+            tree,
+            intersector: Intersector::default(),
+            isa,
+            packet: PacketShape::P8x8,
+        }
     }
 
     /// The same tracer on `isa`.
@@ -122,12 +127,18 @@ impl<'t> Tracer<'t> {
     /// # Errors
     /// [`Error::IsaUnavailable`] when this CPU does not run it.
     pub fn with_isa(self, isa: Isa) -> Result<Self> {
-        Ok(Tracer { isa: check_isa(isa)?, ..self })
+        Ok(Tracer {
+            isa: check_isa(isa)?,
+            ..self
+        })
     }
 
     /// The same tracer with another intersector.
     pub fn with_intersector(self, intersector: Intersector) -> Self {
-        Tracer { intersector, ..self }
+        Tracer {
+            intersector,
+            ..self
+        }
     }
 
     /// The same tracer, cutting streams into packets of `packet`.
@@ -198,7 +209,13 @@ impl<'t> Tracer<'t> {
         let mut counters = PacketCounters::default();
         dispatch::run_on(
             self.isa,
-            ClosestPacket { tracer: self, packet, active, hits, counters: &mut counters },
+            ClosestPacket {
+                tracer: self,
+                packet,
+                active,
+                hits,
+                counters: &mut counters,
+            },
         );
         counters
     }
@@ -209,7 +226,12 @@ impl<'t> Tracer<'t> {
         let mut counters = PacketCounters::default();
         dispatch::run_on(
             self.isa,
-            OccludedPacket { tracer: self, packet, active, counters: &mut counters },
+            OccludedPacket {
+                tracer: self,
+                packet,
+                active,
+                counters: &mut counters,
+            },
         )
     }
 }
@@ -231,10 +253,20 @@ impl LaneTask for ClosestPacket<'_, '_> {
         let tree = self.tracer.tree;
         match self.tracer.intersector {
             Intersector::KenslerShirley => packet::closest::<L, packet::KsLanes>(
-                l, tree, self.packet, self.active, self.hits, self.counters,
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.hits,
+                self.counters,
             ),
             Intersector::Watertight => packet::closest::<L, packet::WatertightLaneTest>(
-                l, tree, self.packet, self.active, self.hits, self.counters,
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.hits,
+                self.counters,
             ),
         }
     }
@@ -256,10 +288,18 @@ impl LaneTask for OccludedPacket<'_, '_> {
         let tree = self.tracer.tree;
         match self.tracer.intersector {
             Intersector::KenslerShirley => packet::occluded::<L, packet::KsLanes>(
-                l, tree, self.packet, self.active, self.counters,
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.counters,
             ),
             Intersector::Watertight => packet::occluded::<L, packet::WatertightLaneTest>(
-                l, tree, self.packet, self.active, self.counters,
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.counters,
             ),
         }
     }

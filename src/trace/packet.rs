@@ -50,7 +50,11 @@ impl PacketCounters {
 /// The lanes of group `g` in `mask`, as the low `L::WIDTH` bits.
 #[inline(always)]
 pub(crate) fn group_bits<L: Lanes>(mask: u64, g: usize) -> u32 {
-    let lanes = if L::WIDTH == 64 { u64::MAX } else { (1u64 << L::WIDTH) - 1 };
+    let lanes = if L::WIDTH == 64 {
+        u64::MAX
+    } else {
+        (1u64 << L::WIDTH) - 1
+    };
     ((mask >> (g * L::WIDTH)) & lanes) as u32
 }
 
@@ -65,8 +69,16 @@ pub(crate) fn group_count<L: Lanes>(len: usize) -> usize {
 pub(crate) fn lane_rays<L: Lanes>(l: L, p: &RayPacket, g: usize) -> LaneRays<L> {
     let b = g * L::WIDTH;
     LaneRays {
-        org: [l.load(&p.org[0][b..]), l.load(&p.org[1][b..]), l.load(&p.org[2][b..])],
-        dir: [l.load(&p.dir[0][b..]), l.load(&p.dir[1][b..]), l.load(&p.dir[2][b..])],
+        org: [
+            l.load(&p.org[0][b..]),
+            l.load(&p.org[1][b..]),
+            l.load(&p.org[2][b..]),
+        ],
+        dir: [
+            l.load(&p.dir[0][b..]),
+            l.load(&p.dir[1][b..]),
+            l.load(&p.dir[2][b..]),
+        ],
     }
 }
 
@@ -150,10 +162,24 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             continue;
         }
         let b = g * L::WIDTH;
-        let org = [l.load(&p.org[0][b..]), l.load(&p.org[1][b..]), l.load(&p.org[2][b..])];
-        let iv = [l.load(&inv[0][b..]), l.load(&inv[1][b..]), l.load(&inv[2][b..])];
-        let (hit, tn, tf) =
-            slab::slab_lanes(l, &org, &iv, l.load(&p.tmin[b..]), l.load(&p.tmax[b..]), &bounds);
+        let org = [
+            l.load(&p.org[0][b..]),
+            l.load(&p.org[1][b..]),
+            l.load(&p.org[2][b..]),
+        ];
+        let iv = [
+            l.load(&inv[0][b..]),
+            l.load(&inv[1][b..]),
+            l.load(&inv[2][b..]),
+        ];
+        let (hit, tn, tf) = slab::slab_lanes(
+            l,
+            &org,
+            &iv,
+            l.load(&p.tmin[b..]),
+            l.load(&p.tmax[b..]),
+            &bounds,
+        );
         l.store(tn, &mut t_enter[b..]);
         l.store(tf, &mut t_exit[b..]);
         clipped |= u64::from((hit & l.mask_from_bits(bits)).bits()) << b;
@@ -329,6 +355,8 @@ impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
 /// bit patterns (a blend moves bits unchanged).
 pub(crate) struct ClosestHits<'h, T> {
     pub hits: &'h mut HitPacket,
+    /// Ray–triangle tests performed.
+    pub tests: u64,
     pub test: core::marker::PhantomData<T>,
 }
 
@@ -337,7 +365,11 @@ impl<'h, T> ClosestHits<'h, T> {
     pub fn new(hits: &'h mut HitPacket, p: &RayPacket) -> Self {
         *hits = HitPacket::default();
         hits.t[..p.len()].copy_from_slice(&p.tmax[..p.len()]);
-        ClosestHits { hits, test: core::marker::PhantomData }
+        ClosestHits {
+            hits,
+            tests: 0,
+            test: core::marker::PhantomData,
+        }
     }
 
     /// Marks rays that hit nothing with `t = +inf`.
@@ -356,7 +388,9 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
         for g in 0..group_count::<L>(p.len()) {
             let bits = group_bits::<L>(visit.mask, g);
             if bits != 0 {
-                test_group::<L, T>(l, p, g, bits, &visit.triangles, 0..visit.triangles.ids.len(), self.hits);
+                let count = visit.triangles.ids.len();
+                self.tests += u64::from(bits.count_ones()) * count as u64;
+                test_group::<L, T>(l, p, g, bits, &visit.triangles, 0..count, self.hits);
             }
         }
         0
@@ -414,12 +448,17 @@ pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
     l.store(best_t, &mut hits.t[b..]);
     l.store(best_u, &mut hits.u[b..]);
     l.store(best_v, &mut hits.v[b..]);
-    l.store(best_id, &mut bytemuck::cast_slice_mut::<u32, f32>(&mut hits.triangle)[b..]);
+    l.store(
+        best_id,
+        &mut bytemuck::cast_slice_mut::<u32, f32>(&mut hits.triangle)[b..],
+    );
 }
 
 /// Any hit: a ray leaves the traversal at its first hit in `[tmin, tmax]`.
 pub(crate) struct AnyHits<T> {
     pub tmax: Column,
+    /// Ray–triangle tests performed.
+    pub tests: u64,
     pub occluded: u64,
     pub test: core::marker::PhantomData<T>,
 }
@@ -439,6 +478,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
             let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&p.tmax[b..]));
             let mut open = bits;
             for i in 0..visit.triangles.ids.len() {
+                self.tests += u64::from(open.count_ones());
                 let h = T::test(l, &prepared, &rays, &visit.triangles, i, tmin, tmax);
                 open &= !(h.mask & l.mask_from_bits(open)).bits();
                 if open == 0 {
@@ -469,11 +509,15 @@ pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
     counters: &mut PacketCounters,
 ) {
     let mut visitor = ClosestHits::<T>::new(hits, p);
-    for (octant, mask) in octant_masks(p, traceable_mask(p, active)).into_iter().enumerate() {
+    for (octant, mask) in octant_masks(p, traceable_mask(p, active))
+        .into_iter()
+        .enumerate()
+    {
         if mask != 0 {
             traverse_octant(l, tree, p, mask, octant, &mut visitor, counters);
         }
     }
+    counters.tests += visitor.tests;
     visitor.finish();
 }
 
@@ -486,11 +530,20 @@ pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
     active: u64,
     counters: &mut PacketCounters,
 ) -> u64 {
-    let mut visitor = AnyHits::<T> { tmax: p.tmax, occluded: 0, test: core::marker::PhantomData };
-    for (octant, mask) in octant_masks(p, traceable_mask(p, active)).into_iter().enumerate() {
+    let mut visitor = AnyHits::<T> {
+        tmax: p.tmax,
+        tests: 0,
+        occluded: 0,
+        test: core::marker::PhantomData,
+    };
+    for (octant, mask) in octant_masks(p, traceable_mask(p, active))
+        .into_iter()
+        .enumerate()
+    {
         if mask != 0 {
             traverse_octant(l, tree, p, mask, octant, &mut visitor, counters);
         }
     }
+    counters.tests += visitor.tests;
     visitor.occluded
 }

@@ -38,7 +38,10 @@ pub fn brute_force(mesh: &Mesh, ray: &Ray) -> Option<ReferenceHit> {
     let mut best = None;
     for (id, tri) in mesh.triangles().enumerate() {
         if let Some(h) = oracle.intersect(&tri, tmin, tmax) {
-            let hit = ReferenceHit { t: h.t, triangle: id as u32 };
+            let hit = ReferenceHit {
+                t: h.t,
+                triangle: id as u32,
+            };
             if hit.beats(&best) {
                 best = Some(hit);
             }
@@ -60,7 +63,10 @@ pub fn kd_oracle(tree: &KdTree, ray: &Ray) -> Option<ReferenceHit> {
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
             for (tri, &id) in leaf.triangles.iter().zip(leaf.ids) {
                 if let Some(h) = self.ray.intersect(tri, self.tmin, self.tmax) {
-                    let hit = ReferenceHit { t: h.t, triangle: id };
+                    let hit = ReferenceHit {
+                        t: h.t,
+                        triangle: id,
+                    };
                     if hit.beats(&self.best) {
                         self.best = Some(hit);
                     }

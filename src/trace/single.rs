@@ -116,7 +116,8 @@ pub struct RayCounters {
 /// One scalar ray–triangle test, as the traversal sees it.
 pub(crate) trait ScalarTest {
     /// The hit of `ray` on triangle `i` of `leaf` in `[ray.tmin, tmax]`, if any.
-    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32) -> Option<TriangleHit>;
+    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32)
+        -> Option<TriangleHit>;
 }
 
 /// The Kensler–Shirley test on the leaf's precomputed form.
@@ -124,7 +125,13 @@ pub(crate) struct KsTest;
 
 impl ScalarTest for KsTest {
     #[inline(always)]
-    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32) -> Option<TriangleHit> {
+    fn test(
+        &self,
+        ray: &Ray,
+        leaf: &LeafTriangles<'_>,
+        i: usize,
+        tmax: f32,
+    ) -> Option<TriangleHit> {
         kensler_shirley::intersect(ray, &leaf.ks[i], ray.tmin, tmax)
     }
 }
@@ -134,7 +141,13 @@ pub(crate) struct WatertightTest(pub WatertightRay);
 
 impl ScalarTest for WatertightTest {
     #[inline(always)]
-    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32) -> Option<TriangleHit> {
+    fn test(
+        &self,
+        ray: &Ray,
+        leaf: &LeafTriangles<'_>,
+        i: usize,
+        tmax: f32,
+    ) -> Option<TriangleHit> {
         self.0.intersect(&leaf.triangles[i], ray.tmin, tmax)
     }
 }
@@ -153,17 +166,31 @@ pub(crate) fn closest_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (
             self.counters.leaves += 1;
             self.counters.tests += leaf.ids.len() as u64;
             for (i, &id) in leaf.ids.iter().enumerate() {
-                let tmax = if self.hit.is_hit() { self.hit.t } else { self.ray.tmax };
+                let tmax = if self.hit.is_hit() {
+                    self.hit.t
+                } else {
+                    self.ray.tmax
+                };
                 if let Some(h) = self.test.test(self.ray, &leaf, i, tmax) {
                     if self.hit.is_beaten_by(h.t, id) {
-                        self.hit = Hit { t: h.t, u: h.u, v: h.v, triangle: id };
+                        self.hit = Hit {
+                            t: h.t,
+                            u: h.u,
+                            v: h.v,
+                            triangle: id,
+                        };
                     }
                 }
             }
             Some(self.hit.t)
         }
     }
-    let mut v = Closest { ray, test, hit: Hit::NONE, counters: RayCounters::default() };
+    let mut v = Closest {
+        ray,
+        test,
+        hit: Hit::NONE,
+        counters: RayCounters::default(),
+    };
     traverse(tree, ray, &mut v);
     (v.hit, v.counters)
 }
@@ -190,7 +217,12 @@ pub(crate) fn any_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (bool
             Some(f32::INFINITY)
         }
     }
-    let mut v = Any { ray, test, found: false, counters: RayCounters::default() };
+    let mut v = Any {
+        ray,
+        test,
+        found: false,
+        counters: RayCounters::default(),
+    };
     traverse(tree, ray, &mut v);
     (v.found, v.counters)
 }

@@ -35,11 +35,19 @@ impl Tracer<'_> {
             (None, c)
         };
         #[cfg(feature = "parallel")]
-        let first: Vec<_> =
-            rays.par_chunks(n).zip(hits.par_chunks_mut(n)).enumerate().map(coherent).collect();
+        let first: Vec<_> = rays
+            .par_chunks(n)
+            .zip(hits.par_chunks_mut(n))
+            .enumerate()
+            .map(coherent)
+            .collect();
         #[cfg(not(feature = "parallel"))]
-        let first: Vec<_> =
-            rays.chunks(n).zip(hits.chunks_mut(n)).enumerate().map(coherent).collect();
+        let first: Vec<_> = rays
+            .chunks(n)
+            .zip(hits.chunks_mut(n))
+            .enumerate()
+            .map(coherent)
+            .collect();
 
         let mut counters = PacketCounters::default();
         let mut rest = Vec::new();
@@ -55,7 +63,14 @@ impl Tracer<'_> {
             let p = RayPacket::from_rays(&gathered);
             let mut hp = HitPacket::default();
             let c = self.intersect_packet(&p, p.full_mask(), &mut hp);
-            (chunk.iter().enumerate().map(|(j, &i)| (i, hp.hit(j))).collect::<Vec<_>>(), c)
+            (
+                chunk
+                    .iter()
+                    .enumerate()
+                    .map(|(j, &i)| (i, hp.hit(j)))
+                    .collect::<Vec<_>>(),
+                c,
+            )
         };
         #[cfg(feature = "parallel")]
         let second: Vec<_> = rest.par_chunks(n).map(incoherent).collect();
@@ -83,7 +98,11 @@ impl Tracer<'_> {
             let gathered: Vec<Ray> = chunk.iter().map(|&i| rays[i as usize]).collect();
             let p = RayPacket::from_rays(&gathered);
             let bits = self.occluded_packet(&p, p.full_mask());
-            chunk.iter().enumerate().map(|(j, &i)| (i, bits >> j & 1 != 0)).collect::<Vec<_>>()
+            chunk
+                .iter()
+                .enumerate()
+                .map(|(j, &i)| (i, bits >> j & 1 != 0))
+                .collect::<Vec<_>>()
         };
         #[cfg(feature = "parallel")]
         let results: Vec<_> = order.par_chunks(n).map(trace).collect();
@@ -109,7 +128,11 @@ fn check_lengths(rays: usize, out: usize) -> Result<()> {
 
 /// Do the traceable rays of `p` all share their direction signs?
 fn is_coherent(p: &RayPacket) -> bool {
-    octant_masks(p, traceable_mask(p, p.full_mask())).iter().filter(|&&m| m != 0).count() <= 1
+    octant_masks(p, traceable_mask(p, p.full_mask()))
+        .iter()
+        .filter(|&&m| m != 0)
+        .count()
+        <= 1
 }
 
 /// Sorts ray indices by octant, then by a coarse direction cell, then by origin, so that

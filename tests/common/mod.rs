@@ -17,7 +17,12 @@ pub fn scenes(real: bool) -> Vec<(String, Mesh)> {
         "default",
     ]
     .iter()
-    .map(|n| (format!("builtin:{n}"), procedural::builtin(n).expect("built-in scene")))
+    .map(|n| {
+        (
+            format!("builtin:{n}"),
+            procedural::builtin(n).expect("built-in scene"),
+        )
+    })
     .collect();
     if real {
         out.extend(real_scenes());

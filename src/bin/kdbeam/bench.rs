@@ -55,13 +55,24 @@ struct Row {
 
 pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     let pool = thread_pool(Some(args.threads))?;
-    let isas: Vec<Isa> =
-        if args.isa.is_empty() { Isa::available().collect() } else { args.isa.clone() };
+    let isas: Vec<Isa> = if args.isa.is_empty() {
+        Isa::available().collect()
+    } else {
+        args.isa.clone()
+    };
     for &isa in &isas {
         kdbeam::trace::check_isa(isa)?;
     }
-    let packets = if args.packet.is_empty() { vec![1, 4, 8, 16, 64] } else { args.packet.clone() };
-    let scenes = if args.scenes.is_empty() { vec![None] } else { args.scenes.iter().map(|s| Some(s.as_str())).collect() };
+    let packets = if args.packet.is_empty() {
+        vec![1, 4, 8, 16, 64]
+    } else {
+        args.packet.clone()
+    };
+    let scenes = if args.scenes.is_empty() {
+        vec![None]
+    } else {
+        args.scenes.iter().map(|s| Some(s.as_str())).collect()
+    };
     if !args.json {
         println!(
             "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11} {:>11} {:>9}",
@@ -75,17 +86,28 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         let mut scalar = None;
         for &packet in &packets {
-            let configs: Vec<Isa> = if packet == 1 { vec![Isa::Scalar] } else { isas.clone() };
+            let configs: Vec<Isa> = if packet == 1 {
+                vec![Isa::Scalar]
+            } else {
+                isas.clone()
+            };
             for &isa in &configs {
-                let base = Tracer::new(&tree).with_intersector(args.trace.intersector).with_isa(isa)?;
-                let (mrays, tests) = pool.install(|| measure(&args, base, packet, &rays, &camera))?;
+                let base = Tracer::new(&tree)
+                    .with_intersector(args.trace.intersector)
+                    .with_isa(isa)?;
+                let (mrays, tests) =
+                    pool.install(|| measure(&args, base, packet, &rays, &camera))?;
                 if packet == 1 {
                     scalar = Some(mrays);
                 }
                 let row = Row {
                     scene: name.clone(),
                     rays: args.rays.name(),
-                    isa: if packet == 1 { "scalar".into() } else { isa.to_string() },
+                    isa: if packet == 1 {
+                        "scalar".into()
+                    } else {
+                        isa.to_string()
+                    },
                     packet,
                     intersector: args.trace.intersector.name(),
                     culling: "none",
@@ -107,7 +129,13 @@ fn print_row(r: &Row, json: bool) {
     } else {
         println!(
             "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11.2} {:>8.2}x",
-            r.scene, r.rays, r.isa, r.packet, r.threads, r.mrays_per_s, r.tests_per_ray,
+            r.scene,
+            r.rays,
+            r.isa,
+            r.packet,
+            r.threads,
+            r.mrays_per_s,
+            r.tests_per_ray,
             r.speedup_vs_scalar
         );
     }
@@ -161,5 +189,8 @@ fn measure(
     }
     times.sort_by(f64::total_cmp);
     let median = times[times.len() / 2];
-    Ok((rays.len() as f64 / median / 1e6, tests as f64 / rays.len() as f64))
+    Ok((
+        rays.len() as f64 / median / 1e6,
+        tests as f64 / rays.len() as f64,
+    ))
 }

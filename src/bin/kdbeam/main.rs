@@ -12,7 +12,11 @@ use kdbeam::trace::{self, Intersector};
 use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
 
 #[derive(Parser)]
-#[command(name = "kdbeam", version, about = "SIMD packet ray tracing through SAH kd-trees")]
+#[command(
+    name = "kdbeam",
+    version,
+    about = "SIMD packet ray tracing through SAH kd-trees"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -66,7 +70,9 @@ struct RenderArgs {
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
     let parse = |v: &str| match v.trim().parse::<u32>() {
         Ok(n) if (1..=16384).contains(&n) => Ok(n),
         _ => Err(format!("{v:?} is not a size from 1 to 16384")),
@@ -90,7 +96,9 @@ fn load_scene(name: Option<&str>) -> kdbeam::Result<(String, Mesh)> {
 /// Runs `f`, showing a spinner with `message` if it takes longer than a second.
 fn with_spinner<T>(message: &str, f: impl FnOnce() -> T) -> T {
     let bar = ProgressBar::hidden();
-    bar.set_style(ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("static template"));
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("static template"),
+    );
     bar.set_message(message.to_string());
     let shown = bar.clone();
     let (tx, rx) = std::sync::mpsc::channel::<()>();
@@ -120,7 +128,10 @@ fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
 }
 
 fn build_tree(mesh: &Mesh, args: &TraceArgs) -> kdbeam::Result<KdTree> {
-    let params = BuildParams { ci_over_ct: args.ci_over_ct, ..BuildParams::default() };
+    let params = BuildParams {
+        ci_over_ct: args.ci_over_ct,
+        ..BuildParams::default()
+    };
     with_spinner("building kd-tree", || KdTree::build(mesh, &params))
 }
 
@@ -129,7 +140,9 @@ fn tracer<'t>(tree: &'t KdTree, args: &TraceArgs) -> kdbeam::Result<Tracer<'t>> 
         name: "packet",
         message: format!("must be 4, 8, 16 or 64, got {}", args.packet),
     })?;
-    let t = Tracer::new(tree).with_intersector(args.intersector).with_packet(packet);
+    let t = Tracer::new(tree)
+        .with_intersector(args.intersector)
+        .with_packet(packet);
     match args.isa {
         Some(isa) => t.with_isa(isa),
         None => Ok(t),
@@ -147,7 +160,10 @@ fn thread_pool(threads: Option<usize>) -> kdbeam::Result<rayon::ThreadPool> {
         }
         b = b.num_threads(n);
     }
-    b.build().map_err(|e| kdbeam::Error::InvalidParameter { name: "threads", message: e.to_string() })
+    b.build().map_err(|e| kdbeam::Error::InvalidParameter {
+        name: "threads",
+        message: e.to_string(),
+    })
 }
 
 fn render(args: RenderArgs) -> kdbeam::Result<()> {
