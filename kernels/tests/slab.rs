@@ -1,5 +1,6 @@
 //! Ray × box clipping: zero direction components with the origin inside, outside and exactly on
 //! a face plane; a brute-force point-sampling reference; lanes against the single-ray form.
+#![cfg(feature = "std")] // `run_on` detects the CPU.
 
 mod common;
 
@@ -186,6 +187,7 @@ struct LanesVsSingle {
 impl LaneTask for LanesVsSingle {
     type Output = Vec<String>;
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> Vec<String> {
         let mut failures = Vec::new();
         for (group, b) in self.rays.chunks_exact(L::WIDTH).zip(&self.boxes) {

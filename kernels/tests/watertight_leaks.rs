@@ -3,6 +3,7 @@
 //! it (where `f32` spacing is 1/64), must hit something, through the single-ray watertight test
 //! and its lane form on every ISA. Kensler–Shirley's leaks on the same rays are printed for
 //! comparison (it is not watertight, and is not asserted on).
+#![cfg(feature = "std")] // `run_on` detects the CPU.
 
 mod common;
 
@@ -176,6 +177,7 @@ struct CountLaneLeaks<'a> {
 impl LaneTask for CountLaneLeaks<'_> {
     type Output = usize;
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> usize {
         let (tmin, tmax) = (l.splat(0.0), l.splat(f32::INFINITY));
         let none = l.mask_from_bits(0);
