@@ -1,6 +1,7 @@
 //! Kensler–Shirley and watertight ray × triangle tests: against the `f64` oracle, barycentric
 //! reconstruction, degenerate triangles, non-finite rays, and the lane forms against the
 //! single-ray forms on every ISA.
+#![cfg(feature = "std")] // `run_on` detects the CPU.
 
 mod common;
 
@@ -294,6 +295,7 @@ struct LanesVsSingle {
 impl LaneTask for LanesVsSingle {
     type Output = (Vec<String>, usize);
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> (Vec<String>, usize) {
         let mut failures = Vec::new();
         let mut compared = 0;

@@ -1,5 +1,6 @@
 //! Every `Lanes` implementation available on this machine against `Scalar`, lane by lane, bit for
 //! bit (NaN payloads excepted), on random values and special values (NaN, ±inf, ±0, denormals).
+#![cfg(feature = "std")] // `run_on` detects the CPU.
 
 mod common;
 
@@ -18,9 +19,13 @@ struct OpsVsScalar {
 /// A scalar reference of a lane operation on lane values `(a, b, c)`.
 type Reference = fn(f32, f32, f32) -> f32;
 
+/// A scalar reference of a lane comparison.
+type Predicate = fn(f32, f32) -> bool;
+
 impl LaneTask for OpsVsScalar {
     type Output = Vec<String>;
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> Vec<String> {
         let mut rng = Rng::new(self.seed);
         let mut failures = Vec::new();
@@ -87,7 +92,7 @@ impl LaneTask for OpsVsScalar {
                 }
             }
 
-            let masks: [(&str, L::Mask, fn(f32, f32) -> bool); 6] = [
+            let masks: [(&str, L::Mask, Predicate); 6] = [
                 ("lt", va.lt(vb), |x, y| x < y),
                 ("le", va.le(vb), |x, y| x <= y),
                 ("gt", va.gt(vb), |x, y| x > y),
@@ -150,6 +155,7 @@ struct MaskAlgebra;
 impl LaneTask for MaskAlgebra {
     type Output = Vec<String>;
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> Vec<String> {
         let full = (1u32 << L::WIDTH) - 1;
         let mut failures = Vec::new();
@@ -192,6 +198,7 @@ struct WhereAmI;
 impl LaneTask for WhereAmI {
     type Output = (Isa, usize, f32);
 
+    #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> (Isa, usize, f32) {
         let ones = lanes_of(l, l.splat(1.0) + l.splat(0.5));
         (L::ISA, L::WIDTH, ones.iter().sum())
@@ -220,6 +227,7 @@ fn load_from_a_short_slice_panics_instead_of_reading_past_it() {
     struct ShortLoad;
     impl LaneTask for ShortLoad {
         type Output = ();
+        #[inline(always)]
         fn run<L: Lanes>(self, l: L) {
             let short = vec![1.0; L::WIDTH - 1];
             l.load(&short);

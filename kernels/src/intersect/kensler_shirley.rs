@@ -34,7 +34,7 @@ use crate::triangle::KsTriangle;
 /// Returns the hit when `tmin <= t <= tmax`, `u >= 0`, `v >= 0` and `u + v <= 1` (all inclusive:
 /// a ray through an edge or vertex hits, possibly both triangles sharing it, and may also miss
 /// both after rounding; use the watertight test where that matters). `ray.tmin`/`ray.tmax` are
-/// ignored in favour of the arguments. Degenerate triangles and NaN rays never hit.
+/// ignored in favour of the arguments. Degenerate triangles (`n = 0`) and NaN rays never hit.
 #[inline(always)]
 pub fn intersect(ray: &Ray, tri: &KsTriangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
     let d = ray.dir.to_array();

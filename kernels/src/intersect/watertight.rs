@@ -35,7 +35,8 @@
 //! already passed the edge tests, so skipping it would save little.
 //!
 //! Edge cases: a triangle with two equal vertices has two equal sheared vertices, so its edge
-//! functions cancel exactly, `det = 0`, and it never hits. NaN in the ray or in a vertex makes an
+//! functions cancel exactly, `det = 0`, and it never hits (three distinct collinear vertices are
+//! not caught: the shear's rounding can make them a thin sliver). NaN in the ray or in a vertex makes an
 //! edge function NaN; every accepting comparison is written so that NaN fails it. A zero
 //! direction gives `Sx = 0/0 = NaN` and never hits. A direction with an infinite component names no
 //! point at a finite `t > 0` (the shear would flatten it to `t = 0`): the prepared ray gets a NaN
@@ -137,7 +138,8 @@ impl WatertightRay {
     /// Watertight test against `tri`: the hit if the ray meets it with `tmin <= t <= tmax`.
     ///
     /// Edges and vertices count as inside (a ray through a shared edge may hit both triangles;
-    /// it never misses both). Both windings hit. Degenerate triangles and NaN rays never hit.
+    /// it never misses both). Both windings hit. Triangles with two equal vertices and rays with
+    /// NaN never hit (collinear distinct vertices: see the [module](super) documentation).
     #[inline(always)]
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let [a, b, c] = [tri.v0, tri.v1, tri.v2].map(|p| self.project(p));
