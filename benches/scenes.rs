@@ -53,9 +53,15 @@ fn primary(c: &mut Criterion) {
                     .with_isa(isa)
                     .expect("available")
                     .with_packet(shape);
-                g.bench_with_input(BenchmarkId::new(isa.name(), shape.len()), &t, |b, t| {
-                    b.iter(|| pool.install(|| trace_primary(t, &camera, &|_| {}).counters.tests))
-                });
+                g.bench_with_input(
+                    BenchmarkId::new(isa.name(), shape.ray_count()),
+                    &t,
+                    |b, t| {
+                        b.iter(|| {
+                            pool.install(|| trace_primary(t, &camera, &|_| {}).counters.tests)
+                        })
+                    },
+                );
             }
         }
         g.finish();

@@ -35,7 +35,7 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                 let tracer = scalar.with_isa(isa).unwrap().with_packet(shape);
                 let mut rng = Rng::new(seed);
                 let mut hp = HitPacket::default();
-                for (c, chunk) in rays.chunks(shape.len()).enumerate() {
+                for (c, chunk) in rays.chunks(shape.ray_count()).enumerate() {
                     let p = RayPacket::from_rays(chunk);
                     // Every third packet has random inactive lanes.
                     let active = if c % 3 == 2 {
@@ -47,7 +47,7 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                     tracer.intersect_packet(&p, active, &mut hp);
                     let occ = tracer.occluded_packet(&p, active);
                     for j in 0..chunk.len() {
-                        let k = c * shape.len() + j;
+                        let k = c * shape.ray_count() + j;
                         let on = active >> j & 1 != 0;
                         let want = if on { expected[k] } else { Hit::NONE };
                         let got = hp.hit(j);

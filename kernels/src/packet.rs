@@ -46,7 +46,7 @@ impl PacketShape {
     }
 
     /// Rays per packet: 4, 8, 16 or 64.
-    pub const fn len(self) -> usize {
+    pub const fn ray_count(self) -> usize {
         self.width() * self.height()
     }
 

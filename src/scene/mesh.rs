@@ -32,7 +32,7 @@ impl Mesh {
     /// # Ok::<(), kdbeam::Error>(())
     /// ```
     pub fn from_indexed(positions: &[[f32; 3]], indices: &[u32]) -> Result<Mesh> {
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(Error::MalformedMesh(format!(
                 "{} indices is not a multiple of 3",
                 indices.len()
@@ -50,7 +50,7 @@ impl Mesh {
     /// # Errors
     /// As [`Mesh::from_indexed`].
     pub fn from_soup(positions: &[[f32; 3]]) -> Result<Mesh> {
-        if positions.len() % 3 != 0 {
+        if !positions.len().is_multiple_of(3) {
             return Err(Error::MalformedMesh(format!(
                 "{} soup positions is not a multiple of 3",
                 positions.len()

@@ -146,10 +146,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let groups = group_count::<L>(p.len());
     let used = groups * L::WIDTH;
     let mut inv = [[0f32; N]; 3];
-    for a in 0..3 {
+    for (inv_a, dir_a) in inv.iter_mut().zip(&p.dir) {
         for g in 0..groups {
             let b = g * L::WIDTH;
-            l.store(l.splat(1.0) / l.load(&p.dir[a][b..]), &mut inv[a][b..]);
+            l.store(l.splat(1.0) / l.load(&dir_a[b..]), &mut inv_a[b..]);
         }
     }
     let mut t_enter = [0f32; N];

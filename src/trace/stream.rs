@@ -21,7 +21,7 @@ impl Tracer<'_> {
     /// [`Error::InvalidParameter`] when `hits.len() != rays.len()`.
     pub fn intersect_stream(&self, rays: &[Ray], hits: &mut [Hit]) -> Result<PacketCounters> {
         check_lengths(rays.len(), hits.len())?;
-        let n = self.packet().len();
+        let n = self.packet().ray_count();
         let coherent = |(i, (chunk, out)): (usize, (&[Ray], &mut [Hit]))| {
             let p = RayPacket::from_rays(chunk);
             if !is_coherent(&p) {
@@ -93,7 +93,7 @@ impl Tracer<'_> {
         check_lengths(rays.len(), occluded.len())?;
         let mut order: Vec<u32> = (0..rays.len() as u32).collect();
         sort_incoherent(rays, &mut order);
-        let n = self.packet().len();
+        let n = self.packet().ray_count();
         let trace = |chunk: &[u32]| {
             let gathered: Vec<Ray> = chunk.iter().map(|&i| rays[i as usize]).collect();
             let p = RayPacket::from_rays(&gathered);

@@ -191,7 +191,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
             camera.width,
             camera.height,
             tracer.isa(),
-            tracer.packet().len(),
+            tracer.packet().ray_count(),
             tracer.intersector().name(),
             rayon::current_num_threads(),
             frame.mrays_per_s(),
