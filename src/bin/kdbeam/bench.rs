@@ -4,10 +4,10 @@ use std::time::Instant;
 
 use kdbeam::render::{self, Camera, RaySet};
 use kdbeam::trace::PacketCounters;
-use kdbeam::{Hit, Isa, PacketShape, Tracer};
+use kdbeam::{Hit, Isa, Tracer};
 use rayon::prelude::*;
 
-use super::{build_tree, load_scene, thread_pool, TraceArgs};
+use super::{build_tree, load_scene, packet_shape, thread_pool, TreeArgs};
 
 #[derive(clap::Args)]
 pub(crate) struct BenchArgs {
@@ -36,7 +36,7 @@ pub(crate) struct BenchArgs {
     #[arg(long)]
     json: bool,
     #[command(flatten)]
-    trace: TraceArgs,
+    tree: TreeArgs,
 }
 
 #[derive(serde::Serialize)]
@@ -81,7 +81,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     }
     for scene in scenes {
         let (name, mesh) = load_scene(scene)?;
-        let tree = build_tree(&mesh, &args.trace)?;
+        let tree = build_tree(&mesh, &args.tree)?;
         let rays = render::ray_set(args.rays, &tree.bounds(), args.size.0, args.size.1);
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         let mut scalar = None;
@@ -93,7 +93,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
             };
             for &isa in &configs {
                 let base = Tracer::new(&tree)
-                    .with_intersector(args.trace.intersector)
+                    .with_intersector(args.tree.intersector)
                     .with_isa(isa)?;
                 let (mrays, tests) =
                     pool.install(|| measure(&args, base, packet, &rays, &camera))?;
@@ -109,7 +109,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                         isa.to_string()
                     },
                     packet,
-                    intersector: args.trace.intersector.name(),
+                    intersector: args.tree.intersector.name(),
                     culling: "none",
                     threads: args.threads,
                     mrays_per_s: mrays,
@@ -164,10 +164,7 @@ fn measure(
                 .sum();
             return Ok((start.elapsed().as_secs_f64(), tests));
         }
-        let shape = PacketShape::from_len(packet).ok_or(kdbeam::Error::InvalidParameter {
-            name: "packet",
-            message: format!("must be 1, 4, 8, 16 or 64, got {packet}"),
-        })?;
+        let shape = packet_shape(packet)?;
         let t = tracer.with_packet(shape);
         let (seconds, counters): (f64, PacketCounters) = match args.rays {
             RaySet::Primary => {

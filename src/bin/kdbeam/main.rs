@@ -32,23 +32,13 @@ enum Command {
 
 /// Options shared by every command that builds a tree and traces.
 #[derive(clap::Args, Clone)]
-struct TraceArgs {
-    /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
-    /// KDBEAM_ISA).
-    #[arg(long)]
-    isa: Option<Isa>,
-    /// Packet size in rays: 4, 8, 16 or 64.
-    #[arg(long, default_value_t = 64)]
-    packet: usize,
+struct TreeArgs {
     /// Ray–triangle test: kensler_shirley or watertight.
     #[arg(long, default_value = "kensler_shirley")]
     intersector: Intersector,
     /// SAH cost ratio of a ray–triangle test to a traversal step.
     #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
     ci_over_ct: f32,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
 }
 
 #[derive(clap::Args)]
@@ -65,8 +55,18 @@ struct RenderArgs {
     /// Also write a heat map of ray–triangle tests per pixel next to the picture.
     #[arg(long)]
     heatmap: bool,
+    /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
+    /// KDBEAM_ISA).
+    #[arg(long)]
+    isa: Option<Isa>,
+    /// Packet size in rays: 4, 8, 16 or 64.
+    #[arg(long, default_value_t = 64)]
+    packet: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
     #[command(flatten)]
-    trace: TraceArgs,
+    tree: TreeArgs,
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -127,7 +127,7 @@ fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
     (bar, Instant::now())
 }
 
-fn build_tree(mesh: &Mesh, args: &TraceArgs) -> kdbeam::Result<KdTree> {
+fn build_tree(mesh: &Mesh, args: &TreeArgs) -> kdbeam::Result<KdTree> {
     let params = BuildParams {
         ci_over_ct: args.ci_over_ct,
         ..BuildParams::default()
@@ -135,14 +135,17 @@ fn build_tree(mesh: &Mesh, args: &TraceArgs) -> kdbeam::Result<KdTree> {
     with_spinner("building kd-tree", || KdTree::build(mesh, &params))
 }
 
-fn tracer<'t>(tree: &'t KdTree, args: &TraceArgs) -> kdbeam::Result<Tracer<'t>> {
-    let packet = PacketShape::from_len(args.packet).ok_or(kdbeam::Error::InvalidParameter {
+fn packet_shape(rays: usize) -> kdbeam::Result<PacketShape> {
+    PacketShape::from_len(rays).ok_or(kdbeam::Error::InvalidParameter {
         name: "packet",
-        message: format!("must be 4, 8, 16 or 64, got {}", args.packet),
-    })?;
+        message: format!("must be 4, 8, 16 or 64, got {rays}"),
+    })
+}
+
+fn tracer<'t>(tree: &'t KdTree, args: &RenderArgs) -> kdbeam::Result<Tracer<'t>> {
     let t = Tracer::new(tree)
-        .with_intersector(args.intersector)
-        .with_packet(packet);
+        .with_intersector(args.tree.intersector)
+        .with_packet(packet_shape(args.packet)?);
     match args.isa {
         Some(isa) => t.with_isa(isa),
         None => Ok(t),
@@ -168,14 +171,14 @@ fn thread_pool(threads: Option<usize>) -> kdbeam::Result<rayon::ThreadPool> {
 
 fn render(args: RenderArgs) -> kdbeam::Result<()> {
     trace::isa_from_env()?;
-    let pool = thread_pool(args.trace.threads)?;
+    let pool = thread_pool(args.threads)?;
     pool.install(|| {
         let (name, mesh) = with_spinner("loading scene", || load_scene(args.scene.as_deref()))?;
-        let tree = build_tree(&mesh, &args.trace)?;
+        let tree = build_tree(&mesh, &args.tree)?;
         let stats = tree.stats();
         println!("scene      {name}: {} triangles", mesh.triangle_count());
         println!("kd-tree    {stats}");
-        let tracer = tracer(&tree, &args.trace)?;
+        let tracer = tracer(&tree, &args)?;
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         let (bar, start) = delayed_bar(u64::from(camera.height), "tracing");
         let frame = render::trace_primary(&tracer, &camera, &|rows| {
