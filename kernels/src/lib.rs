@@ -7,6 +7,7 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod aabb;
+pub mod beam;
 pub mod intersect;
 pub mod lanes;
 pub mod packet;

@@ -3,6 +3,7 @@
 //! [`Tracer`] is the entry point: it borrows a [`KdTree`] and holds the choice of intersector,
 //! ISA and culling.
 
+mod culling;
 mod dispatch;
 mod packet;
 pub mod reference;
@@ -13,6 +14,7 @@ use kdbeam_kernels::intersect::watertight::WatertightRay;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
+pub use culling::{Culling, Frustum, Planes};
 pub use packet::PacketCounters;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
@@ -107,6 +109,7 @@ pub struct Tracer<'t> {
     intersector: Intersector,
     isa: Isa,
     packet: PacketShape,
+    culling: Culling,
 }
 
 impl<'t> Tracer<'t> {
@@ -119,6 +122,7 @@ impl<'t> Tracer<'t> {
             intersector: Intersector::default(),
             isa,
             packet: PacketShape::P8x8,
+            culling: Culling::AUTO,
         }
     }
 
@@ -144,6 +148,17 @@ impl<'t> Tracer<'t> {
     /// The same tracer, cutting streams into packets of `packet`.
     pub fn with_packet(self, packet: PacketShape) -> Self {
         Tracer { packet, ..self }
+    }
+
+    /// The same tracer with another culling setting (packets only: single rays are never
+    /// culled).
+    pub fn with_culling(self, culling: Culling) -> Self {
+        Tracer { culling, ..self }
+    }
+
+    /// The culling setting.
+    pub fn culling(&self) -> Culling {
+        self.culling
     }
 
     /// The packet shape streams are cut into.
@@ -207,16 +222,18 @@ impl<'t> Tracer<'t> {
         hits: &mut HitPacket,
     ) -> PacketCounters {
         let mut counters = PacketCounters::default();
-        dispatch::run_on(
-            self.isa,
-            ClosestPacket {
+        packet::with_stack(|stack| {
+            let counters = &mut counters;
+            let task = ClosestPacket {
                 tracer: self,
                 packet,
                 active,
                 hits,
-                counters: &mut counters,
-            },
-        );
+                stack,
+                counters,
+            };
+            dispatch::run_on(self.isa, task)
+        });
         counters
     }
 
@@ -224,15 +241,17 @@ impl<'t> Tracer<'t> {
     /// as a bit mask.
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
         let mut counters = PacketCounters::default();
-        dispatch::run_on(
-            self.isa,
-            OccludedPacket {
+        packet::with_stack(|stack| {
+            let counters = &mut counters;
+            let task = OccludedPacket {
                 tracer: self,
                 packet,
                 active,
-                counters: &mut counters,
-            },
-        )
+                stack,
+                counters,
+            };
+            dispatch::run_on(self.isa, task)
+        })
     }
 }
 
@@ -242,6 +261,7 @@ struct ClosestPacket<'a, 't> {
     packet: &'a RayPacket,
     active: u64,
     hits: &'a mut HitPacket,
+    stack: &'a mut packet::Stack,
     counters: &'a mut PacketCounters,
 }
 
@@ -257,7 +277,9 @@ impl LaneTask for ClosestPacket<'_, '_> {
                 tree,
                 self.packet,
                 self.active,
+                self.tracer.culling,
                 self.hits,
+                self.stack,
                 self.counters,
             ),
             Intersector::Watertight => packet::closest::<L, packet::WatertightLaneTest>(
@@ -265,7 +287,9 @@ impl LaneTask for ClosestPacket<'_, '_> {
                 tree,
                 self.packet,
                 self.active,
+                self.tracer.culling,
                 self.hits,
+                self.stack,
                 self.counters,
             ),
         }
@@ -277,6 +301,7 @@ struct OccludedPacket<'a, 't> {
     tracer: &'a Tracer<'t>,
     packet: &'a RayPacket,
     active: u64,
+    stack: &'a mut packet::Stack,
     counters: &'a mut PacketCounters,
 }
 
@@ -292,6 +317,8 @@ impl LaneTask for OccludedPacket<'_, '_> {
                 tree,
                 self.packet,
                 self.active,
+                self.tracer.culling,
+                self.stack,
                 self.counters,
             ),
             Intersector::Watertight => packet::occluded::<L, packet::WatertightLaneTest>(
@@ -299,6 +326,8 @@ impl LaneTask for OccludedPacket<'_, '_> {
                 tree,
                 self.packet,
                 self.active,
+                self.tracer.culling,
+                self.stack,
                 self.counters,
             ),
         }

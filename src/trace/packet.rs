@@ -8,12 +8,14 @@
 //! when the scalar traversal would enter that cell, lane for lane (see
 //! [`super::single::traverse`]), so the two find the same hits.
 
+use kdbeam_kernels::beam::{Beam, Survivors};
 use kdbeam_kernels::intersect::kensler_shirley;
 use kdbeam_kernels::intersect::watertight::WatertightLanes;
 use kdbeam_kernels::intersect::{LaneHits, LaneRays};
 use kdbeam_kernels::{slab, Aabb, HitPacket, LaneF32, LaneMask, Lanes, RayPacket, MAX_PACKET_RAYS};
 
-use super::single::{is_traceable, STACK_DEPTH};
+use super::culling::Culling;
+use super::single::{is_traceable, root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
 use crate::kdtree::{KdTree, LeafTriangles};
 
 const N: usize = MAX_PACKET_RAYS;
@@ -22,7 +24,7 @@ const N: usize = MAX_PACKET_RAYS;
 pub(crate) type Column = [f32; N];
 
 /// Work done by packet traversals, summed by callers.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PacketCounters {
     /// Packets (after the split by octant) traced.
     pub packets: u64,
@@ -34,6 +36,36 @@ pub struct PacketCounters {
     pub potential_tests: u64,
     /// Ray–triangle tests performed.
     pub tests: u64,
+    /// Leaf visits where a beam was built.
+    pub beams: u64,
+    /// Tests culled by the side planes (counted with the `stats` feature).
+    pub culled_planes: u64,
+    /// Tests culled by the near and far planes (counted with the `stats` feature).
+    pub culled_distance: u64,
+    /// Tests culled by the aperture test (counted with the `stats` feature).
+    pub culled_aperture: u64,
+    /// Hits found (a ray's closest hit improving; counted with the `stats` feature).
+    pub hits: u64,
+    /// Leaf visits by number of active rays, 0 to 64 (counted with the `stats` feature).
+    pub active_rays: [u64; MAX_PACKET_RAYS + 1],
+}
+
+impl Default for PacketCounters {
+    fn default() -> Self {
+        PacketCounters {
+            packets: 0,
+            leaf_visits: 0,
+            ray_leaf_visits: 0,
+            potential_tests: 0,
+            tests: 0,
+            beams: 0,
+            culled_planes: 0,
+            culled_distance: 0,
+            culled_aperture: 0,
+            hits: 0,
+            active_rays: [0; MAX_PACKET_RAYS + 1],
+        }
+    }
 }
 
 impl PacketCounters {
@@ -44,6 +76,27 @@ impl PacketCounters {
         self.ray_leaf_visits += o.ray_leaf_visits;
         self.potential_tests += o.potential_tests;
         self.tests += o.tests;
+        self.beams += o.beams;
+        self.culled_planes += o.culled_planes;
+        self.culled_distance += o.culled_distance;
+        self.culled_aperture += o.culled_aperture;
+        self.hits += o.hits;
+        for (a, b) in self.active_rays.iter_mut().zip(&o.active_rays) {
+            *a += b;
+        }
+    }
+
+    /// Share of the potential ray–triangle tests that culling eliminated, in percent.
+    pub fn eliminated_percent(&self) -> f64 {
+        if self.potential_tests == 0 {
+            return 0.0;
+        }
+        100.0 * (1.0 - self.tests as f64 / self.potential_tests as f64)
+    }
+
+    /// Share of leaf visits with a single active ray, in percent (with the `stats` feature).
+    pub fn single_ray_visits_percent(&self) -> f64 {
+        100.0 * self.active_rays[1] as f64 / self.leaf_visits.max(1) as f64
     }
 }
 
@@ -90,17 +143,21 @@ pub(crate) struct LeafVisit<'a> {
     pub bounds: &'a Aabb,
     /// Rays active in this leaf.
     pub mask: u64,
-    /// Where each active ray enters the cell.
-    pub t_enter: &'a Column,
-    /// Where each active ray leaves it.
-    pub t_exit: &'a Column,
+    /// Every ray of this traversal (the maskless frustum's rays).
+    pub packet_mask: u64,
 }
 
 /// What a packet traversal does in each leaf.
 pub(crate) trait PacketVisitor<L: Lanes> {
     /// Tests the leaf for the rays of `visit.mask`; returns the rays that are finished (an
     /// any-hit query that found its hit), which then leave the traversal.
-    fn visit(&mut self, l: L, packet: &RayPacket, visit: LeafVisit<'_>) -> u64;
+    fn visit(
+        &mut self,
+        l: L,
+        packet: &RayPacket,
+        visit: LeafVisit<'_>,
+        counters: &mut PacketCounters,
+    ) -> u64;
     /// Closest hit so far per ray (the ray's `tmax` without one): a cell entered after it is
     /// skipped.
     fn best_t(&self) -> &Column;
@@ -141,20 +198,28 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     mut mask: u64,
     octant: usize,
     visitor: &mut V,
+    stack: &mut Stack,
     counters: &mut PacketCounters,
 ) {
     let groups = group_count::<L>(p.len());
     let used = groups * L::WIDTH;
     let mut inv = [[0f32; N]; 3];
-    for (inv_a, dir_a) in inv.iter_mut().zip(&p.dir) {
+    let mut err = [[0f32; N]; 3];
+    let max = l.splat(f32::MAX);
+    for a in 0..3 {
         for g in 0..groups {
             let b = g * L::WIDTH;
-            l.store(l.splat(1.0) / l.load(&dir_a[b..]), &mut inv_a[b..]);
+            let i = l.splat(1.0) / l.load(&p.dir[a][b..]);
+            l.store(i, &mut inv[a][b..]);
+            l.store(
+                (l.load(&p.org[a][b..]) * i).abs().min(max),
+                &mut err[a][b..],
+            );
         }
     }
     let mut t_enter = [0f32; N];
     let mut t_exit = [0f32; N];
-    let bounds = tree.bounds();
+    let bounds = root_bounds(tree);
     let mut clipped = 0u64;
     for g in 0..groups {
         let bits = group_bits::<L>(mask, g);
@@ -185,13 +250,16 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
         clipped |= u64::from((hit & l.mask_from_bits(bits)).bits()) << b;
     }
     mask = clipped;
+    let packet_mask = mask;
     counters.packets += 1;
 
     let nodes = tree.nodes();
     let mut stack_node = [0u32; STACK_DEPTH];
     let mut stack_mask = [0u64; STACK_DEPTH];
-    let mut stack_enter = [[0f32; N]; STACK_DEPTH];
-    let mut stack_exit = [[0f32; N]; STACK_DEPTH];
+    let Stack {
+        enter: stack_enter,
+        exit: stack_exit,
+    } = stack;
     let mut top = 0;
     let mut node_index = 0u32;
     let mut done = 0u64;
@@ -203,6 +271,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
         if !node.is_leaf() {
             let axis = node.axis();
             let split = l.splat(node.split());
+            let eps = l.splat(INTERVAL_EPS);
             let (near, far) = if octant >> axis & 1 != 0 {
                 (node.above_child(), node_index + 1)
             } else {
@@ -217,10 +286,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 let b = g * L::WIDTH;
                 let ts = (split - l.load(&p.org[axis][b..])) * l.load(&inv[axis][b..]);
                 let (tn, tf) = (l.load(&t_enter[b..]), l.load(&t_exit[b..]));
-                // NaN (origin on the plane, zero direction) yields the second operand: the
-                // ray keeps its whole interval on both sides.
-                let ne = ts.min(tf);
-                let fe = ts.max(tn);
+                let (ne, fe) = split_intervals(ts, tn, tf, l.load(&err[axis][b..]), eps, max);
                 let act = l.mask_from_bits(bits);
                 l.store(ne, &mut near_exit[b..]);
                 l.store(fe, &mut far_enter[b..]);
@@ -250,6 +316,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 let rays = u64::from(mask.count_ones());
                 counters.ray_leaf_visits += rays;
                 counters.potential_tests += rays * u64::from(leaf.count);
+                #[cfg(feature = "stats")]
+                {
+                    counters.active_rays[rays as usize] += 1;
+                }
                 done |= visitor.visit(
                     l,
                     p,
@@ -257,9 +327,9 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                         triangles: tree.leaf_triangles(leaf),
                         bounds: &leaf.bounds,
                         mask,
-                        t_enter: &t_enter,
-                        t_exit: &t_exit,
+                        packet_mask,
                     },
+                    counters,
                 );
             }
         }
@@ -288,13 +358,35 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     }
 }
 
+/// The per-ray intervals of a traversal stack: 32 KiB, kept per thread rather than zeroed on
+/// the machine stack for every packet.
+pub(crate) struct Stack {
+    enter: [Column; STACK_DEPTH],
+    exit: [Column; STACK_DEPTH],
+}
+
+thread_local! {
+    static STACK: std::cell::RefCell<Box<Stack>> = std::cell::RefCell::new(Box::new(Stack {
+        enter: [[0.0; N]; STACK_DEPTH],
+        exit: [[0.0; N]; STACK_DEPTH],
+    }));
+}
+
+/// Runs `f` with this thread's traversal stack. Call it outside the ISA's `#[target_feature]`
+/// entry point: the closure is not inlined.
+pub(crate) fn with_stack<R>(f: impl FnOnce(&mut Stack) -> R) -> R {
+    STACK.with(|s| f(&mut s.borrow_mut()))
+}
+
 /// One packet ray–triangle test, per ISA.
 pub(crate) trait LaneTest<L: Lanes> {
     /// Per-group work done once per leaf (the watertight shear).
     type Prepared;
     /// Prepares group `rays`.
     fn prepare(l: L, rays: &LaneRays<L>) -> Self::Prepared;
-    /// Tests triangle `i` of `leaf` against the group, hits in `[tmin, tmax]`.
+    /// Tests triangle `i` of `leaf` against the group, hits in `[tmin, tmax]`. `inside`: the
+    /// beam proved every ray crosses the triangle, so its barycentric checks may be skipped.
+    #[allow(clippy::too_many_arguments)]
     fn test(
         l: L,
         prepared: &Self::Prepared,
@@ -303,6 +395,7 @@ pub(crate) trait LaneTest<L: Lanes> {
         i: usize,
         tmin: L::F32,
         tmax: L::F32,
+        inside: bool,
     ) -> LaneHits<L>;
 }
 
@@ -322,12 +415,25 @@ impl<L: Lanes> LaneTest<L> for KsLanes {
         i: usize,
         tmin: L::F32,
         tmax: L::F32,
+        inside: bool,
     ) -> LaneHits<L> {
-        kensler_shirley::intersect_lanes(l, rays, &leaf.ks[i], tmin, tmax)
+        let h = kensler_shirley::intersect_lanes(l, rays, &leaf.ks[i], tmin, tmax);
+        if inside {
+            // Reshetov (after Dmitriev et al.): all four corner rays hit the triangle, so every
+            // ray does; only the distance decides. The barycentrics the kernel computed are
+            // the same; the margin of the corner test keeps them inside.
+            LaneHits {
+                mask: h.t.ge(tmin) & h.t.le(tmax),
+                ..h
+            }
+        } else {
+            h
+        }
     }
 }
 
-/// Watertight on packets.
+/// Watertight on packets (the beam's "inside" shortcut is not taken: the watertight verdict
+/// stays the edge functions' own).
 pub(crate) struct WatertightLaneTest;
 
 impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
@@ -345,8 +451,102 @@ impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
         i: usize,
         tmin: L::F32,
         tmax: L::F32,
+        _: bool,
     ) -> LaneHits<L> {
         prepared.intersect(l, &leaf.triangles[i], tmin, tmax)
+    }
+}
+
+/// The beam for this leaf visit, or `None` when the visit is tested unculled (culling off, too
+/// few triangles or rays for a beam to pay, or no prevalent axis).
+#[inline(always)]
+fn leaf_beam<L: Lanes>(
+    l: L,
+    p: &RayPacket,
+    visit: &LeafVisit<'_>,
+    culling: &Culling,
+    best: Option<(&Column, u64)>,
+) -> Option<Beam<L>> {
+    culling
+        .beam_rays(visit.triangles.ids.len(), visit.mask, visit.packet_mask)
+        .and_then(|used| Beam::new(l, p, used, visit.bounds, best, culling.stages()))
+}
+
+/// The blocks of up to 64 triangles of a leaf that hold triangles to test, culled by a beam
+/// when there is one: `(first triangle, survivors)`. An iterator rather than a callback, so
+/// that everything stays inlined into the ISA's `#[target_feature]` entry point.
+struct SurvivorBlocks<'v, L: Lanes> {
+    beam: Option<Beam<L>>,
+    triangles: &'v [kdbeam_kernels::Triangle],
+    next: usize,
+    rays: u64,
+    /// Tests the survivors cost (active rays × triangles).
+    tests: u64,
+    #[cfg(feature = "stats")]
+    culled: kdbeam_kernels::beam::CullCounts,
+}
+
+impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
+    #[inline(always)]
+    fn new(beam: Option<Beam<L>>, visit: &LeafVisit<'v>, counters: &mut PacketCounters) -> Self {
+        counters.beams += u64::from(beam.is_some());
+        SurvivorBlocks {
+            beam,
+            triangles: visit.triangles.triangles,
+            next: 0,
+            rays: u64::from(visit.mask.count_ones()),
+            tests: 0,
+            #[cfg(feature = "stats")]
+            culled: Default::default(),
+        }
+    }
+
+    /// Adds what was culled to `counters` and returns the tests performed.
+    #[inline(always)]
+    fn finish(self, counters: &mut PacketCounters) -> u64 {
+        #[cfg(feature = "stats")]
+        {
+            counters.culled_planes += self.rays * u64::from(self.culled.planes);
+            counters.culled_distance += self.rays * u64::from(self.culled.distance);
+            counters.culled_aperture += self.rays * u64::from(self.culled.aperture);
+        }
+        let _ = counters;
+        self.tests
+    }
+}
+
+impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
+    type Item = (usize, Survivors);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(usize, Survivors)> {
+        while self.next < self.triangles.len() {
+            let first = self.next;
+            let end = (first + 64).min(self.triangles.len());
+            self.next = end;
+            let s = match &mut self.beam {
+                Some(beam) => beam.cull(&self.triangles[first..end]),
+                None => {
+                    let n = end - first;
+                    let all = if n == 64 { u64::MAX } else { (1 << n) - 1 };
+                    Survivors {
+                        mask: all,
+                        ..Survivors::default()
+                    }
+                }
+            };
+            #[cfg(feature = "stats")]
+            {
+                self.culled.planes += s.culled.planes;
+                self.culled.distance += s.culled.distance;
+                self.culled.aperture += s.culled.aperture;
+            }
+            self.tests += self.rays * u64::from(s.mask.count_ones());
+            if s.mask != 0 {
+                return Some((first, s));
+            }
+        }
+        None
     }
 }
 
@@ -354,19 +554,24 @@ impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
 /// starts at each ray's `tmax` and whose triangle ids are carried through the lanes as `f32`
 /// bit patterns (a blend moves bits unchanged).
 pub(crate) struct ClosestHits<'h, T> {
-    pub hits: &'h mut HitPacket,
+    hits: &'h mut HitPacket,
+    culling: Culling,
+    /// Rays that have a hit.
+    has_hit: u64,
     /// Ray–triangle tests performed.
-    pub tests: u64,
-    pub test: core::marker::PhantomData<T>,
+    tests: u64,
+    test: core::marker::PhantomData<T>,
 }
 
 impl<'h, T> ClosestHits<'h, T> {
     /// Starts `hits` for `p`: no hit, best `t` = each ray's `tmax`.
-    pub fn new(hits: &'h mut HitPacket, p: &RayPacket) -> Self {
+    pub fn new(hits: &'h mut HitPacket, p: &RayPacket, culling: Culling) -> Self {
         *hits = HitPacket::default();
         hits.t[..p.len()].copy_from_slice(&p.tmax[..p.len()]);
         ClosestHits {
             hits,
+            culling,
+            has_hit: 0,
             tests: 0,
             test: core::marker::PhantomData,
         }
@@ -384,15 +589,46 @@ impl<'h, T> ClosestHits<'h, T> {
 
 impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
     #[inline(always)]
-    fn visit(&mut self, l: L, p: &RayPacket, visit: LeafVisit<'_>) -> u64 {
-        for g in 0..group_count::<L>(p.len()) {
-            let bits = group_bits::<L>(visit.mask, g);
-            if bits != 0 {
-                let count = visit.triangles.ids.len();
-                self.tests += u64::from(bits.count_ones()) * count as u64;
-                test_group::<L, T>(l, p, g, bits, &visit.triangles, 0..count, self.hits);
+    fn visit(
+        &mut self,
+        l: L,
+        p: &RayPacket,
+        visit: LeafVisit<'_>,
+        counters: &mut PacketCounters,
+    ) -> u64 {
+        // The far plane reads the hits as they stand when the beam is built: they only get
+        // closer while the leaf is tested, so the plane stays conservative.
+        let beam = leaf_beam(
+            l,
+            p,
+            &visit,
+            &self.culling,
+            Some((&self.hits.t, self.has_hit)),
+        );
+        let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        while let Some((first, survivors)) = blocks.next() {
+            for g in 0..group_count::<L>(p.len()) {
+                let bits = group_bits::<L>(visit.mask, g);
+                if bits != 0 {
+                    let better = test_group::<L, T>(
+                        l,
+                        p,
+                        g,
+                        bits,
+                        &visit.triangles,
+                        first,
+                        survivors,
+                        self.hits,
+                    );
+                    self.has_hit |= u64::from(better) << (g * L::WIDTH);
+                    #[cfg(feature = "stats")]
+                    {
+                        counters.hits += u64::from(better.count_ones());
+                    }
+                }
             }
         }
+        self.tests += blocks.finish(counters);
         0
     }
 
@@ -402,8 +638,10 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
     }
 }
 
-/// Tests the triangles `range` of `leaf` against the lanes `bits` of group `g`, keeping each
-/// lane's closest hit with [`kdbeam_kernels::Hit::is_beaten_by`]'s tie rule.
+/// Tests the triangles `first + i` for each bit `i` of `survivors.mask` against the lanes
+/// `bits` of group `g`, keeping each lane's closest hit with
+/// [`kdbeam_kernels::Hit::is_beaten_by`]'s tie rule. Returns the lanes whose hit improved.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
     l: L,
@@ -411,9 +649,10 @@ pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
     g: usize,
     bits: u32,
     leaf: &LeafTriangles<'_>,
-    range: impl Iterator<Item = usize>,
+    first: usize,
+    survivors: Survivors,
     hits: &mut HitPacket,
-) {
+) -> u32 {
     let b = g * L::WIDTH;
     let rays = lane_rays(l, p, g);
     let prepared = T::prepare(l, &rays);
@@ -423,8 +662,14 @@ pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
     let mut best_u = l.load(&hits.u[b..]);
     let mut best_v = l.load(&hits.v[b..]);
     let mut best_id = l.load(&bytemuck::cast_slice::<u32, f32>(&hits.triangle)[b..]);
-    for i in range {
-        let h = T::test(l, &prepared, &rays, leaf, i, tmin, best_t);
+    let mut improved = 0u32;
+    let mut rest = survivors.mask;
+    while rest != 0 {
+        let j = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let i = first + j;
+        let inside = survivors.inside >> j & 1 != 0;
+        let h = T::test(l, &prepared, &rays, leaf, i, tmin, best_t, inside);
         let found = h.mask & act;
         if found.none() {
             continue;
@@ -439,6 +684,7 @@ pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
                 }
             }
         }
+        improved |= better;
         let m = l.mask_from_bits(better);
         best_t = L::F32::select(m, h.t, best_t);
         best_u = L::F32::select(m, h.u, best_u);
@@ -452,41 +698,59 @@ pub(crate) fn test_group<L: Lanes, T: LaneTest<L>>(
         best_id,
         &mut bytemuck::cast_slice_mut::<u32, f32>(&mut hits.triangle)[b..],
     );
+    improved
 }
 
 /// Any hit: a ray leaves the traversal at its first hit in `[tmin, tmax]`.
 pub(crate) struct AnyHits<T> {
-    pub tmax: Column,
+    tmax: Column,
+    culling: Culling,
     /// Ray–triangle tests performed.
-    pub tests: u64,
-    pub occluded: u64,
-    pub test: core::marker::PhantomData<T>,
+    tests: u64,
+    occluded: u64,
+    test: core::marker::PhantomData<T>,
 }
 
 impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
     #[inline(always)]
-    fn visit(&mut self, l: L, p: &RayPacket, visit: LeafVisit<'_>) -> u64 {
-        let mut found = 0u64;
-        for g in 0..group_count::<L>(p.len()) {
-            let bits = group_bits::<L>(visit.mask, g);
-            if bits == 0 {
-                continue;
-            }
-            let b = g * L::WIDTH;
-            let rays = lane_rays(l, p, g);
-            let prepared = T::prepare(l, &rays);
-            let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&p.tmax[b..]));
-            let mut open = bits;
-            for i in 0..visit.triangles.ids.len() {
-                self.tests += u64::from(open.count_ones());
-                let h = T::test(l, &prepared, &rays, &visit.triangles, i, tmin, tmax);
-                open &= !(h.mask & l.mask_from_bits(open)).bits();
-                if open == 0 {
-                    break;
+    fn visit(
+        &mut self,
+        l: L,
+        p: &RayPacket,
+        visit: LeafVisit<'_>,
+        counters: &mut PacketCounters,
+    ) -> u64 {
+        let mut open = visit.mask;
+        let mut tests = 0u64;
+        let beam = leaf_beam(l, p, &visit, &self.culling, None);
+        let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        while let Some((first, s)) = blocks.next() {
+            for g in 0..group_count::<L>(p.len()) {
+                let before = group_bits::<L>(open, g);
+                let mut bits = before;
+                if bits == 0 {
+                    continue;
                 }
+                let b = g * L::WIDTH;
+                let rays = lane_rays(l, p, g);
+                let prepared = T::prepare(l, &rays);
+                let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&p.tmax[b..]));
+                let mut rest = s.mask;
+                while rest != 0 && bits != 0 {
+                    let j = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    tests += u64::from(bits.count_ones());
+                    let inside = s.inside >> j & 1 != 0;
+                    let tris = &visit.triangles;
+                    let h = T::test(l, &prepared, &rays, tris, first + j, tmin, tmax, inside);
+                    bits &= !(h.mask & l.mask_from_bits(bits)).bits();
+                }
+                open &= !(u64::from(before & !bits) << b);
             }
-            found |= u64::from(bits & !open) << b;
         }
+        blocks.finish(counters);
+        self.tests += tests;
+        let found = visit.mask & !open;
         self.occluded |= found;
         found
     }
@@ -505,16 +769,18 @@ pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
     tree: &KdTree,
     p: &RayPacket,
     active: u64,
+    culling: Culling,
     hits: &mut HitPacket,
+    stack: &mut Stack,
     counters: &mut PacketCounters,
 ) {
-    let mut visitor = ClosestHits::<T>::new(hits, p);
+    let mut visitor = ClosestHits::<T>::new(hits, p, culling);
     for (octant, mask) in octant_masks(p, traceable_mask(p, active))
         .into_iter()
         .enumerate()
     {
         if mask != 0 {
-            traverse_octant(l, tree, p, mask, octant, &mut visitor, counters);
+            traverse_octant(l, tree, p, mask, octant, &mut visitor, stack, counters);
         }
     }
     counters.tests += visitor.tests;
@@ -528,10 +794,13 @@ pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
     tree: &KdTree,
     p: &RayPacket,
     active: u64,
+    culling: Culling,
+    stack: &mut Stack,
     counters: &mut PacketCounters,
 ) -> u64 {
     let mut visitor = AnyHits::<T> {
         tmax: p.tmax,
+        culling,
         tests: 0,
         occluded: 0,
         test: core::marker::PhantomData,
@@ -541,7 +810,7 @@ pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
         .enumerate()
     {
         if mask != 0 {
-            traverse_octant(l, tree, p, mask, octant, &mut visitor, counters);
+            traverse_octant(l, tree, p, mask, octant, &mut visitor, stack, counters);
         }
     }
     counters.tests += visitor.tests;

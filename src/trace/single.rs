@@ -36,18 +36,15 @@ pub(crate) fn is_traceable(ray: &Ray) -> bool {
 /// a triangle hit at exactly that `t` in a later cell may still win the tie on its smaller id.
 ///
 /// The near child is chosen by the sign bit of the direction, and a child is entered when its
-/// part of the interval is non-empty; this is the packet traversal's rule, lane for lane, so
-/// both visit the same leaves. A zero direction component gives `t_split = ±inf`, which empties
-/// the side the ray is not on; an origin on the split plane gives `0 · inf = NaN`, and the
-/// operand order of `min`/`max` (NaN yields the second operand) then keeps the whole interval
-/// on both sides: the ray lies in the plane and may hit triangles of either child.
+/// part of the interval ([`split_intervals`]) is non-empty; this is the packet traversal's rule,
+/// lane for lane, so both visit the same leaves.
 pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V) {
     if !is_traceable(ray) {
         return;
     }
     let inv = ray.dir.recip();
     let Some((mut t_enter, mut t_exit)) =
-        slab::ray_box(ray.origin, inv, ray.tmin, ray.tmax, &tree.bounds())
+        slab::ray_box(ray.origin, inv, ray.tmin, ray.tmax, &root_bounds(tree))
     else {
         return;
     };
@@ -62,13 +59,14 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
             if !node.is_leaf() {
                 let axis = node.axis();
                 let t_split = (node.split() - ray.origin[axis]) * inv[axis];
+                let err = LaneF32::min((ray.origin[axis] * inv[axis]).abs(), f32::MAX);
                 let (near, far) = if ray.dir[axis].is_sign_negative() {
                     (node.above_child(), node_index + 1)
                 } else {
                     (node_index + 1, node.above_child())
                 };
-                let near_exit = LaneF32::min(t_split, t_exit);
-                let far_enter = LaneF32::max(t_split, t_enter);
+                let (near_exit, far_enter) =
+                    split_intervals(t_split, t_enter, t_exit, err, INTERVAL_EPS, f32::MAX);
                 match (t_enter <= near_exit, far_enter <= t_exit) {
                     (true, true) => {
                         stack[top] = (far, far_enter, t_exit);
@@ -102,6 +100,49 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
         top -= 1;
         (node_index, t_enter, t_exit) = stack[top];
     }
+}
+
+/// Relative slack of the cell intervals: 16 ulps, well above the few roundings of
+/// `(split − o) · (1 / d)` and of the box slab.
+pub(crate) const INTERVAL_EPS: f32 = 1.0 / 1_048_576.0;
+
+/// The interval of the near child ending at `t_split` and of the far child starting there,
+/// each widened by the rounding `t_split` may carry.
+///
+/// `t_split = (split − o)·inv` is off by up to a few ulps of `|t_split| + |o·inv|` (the second
+/// term for the subtraction, when the origin's coordinate is large); a ray that meets the split
+/// where it enters or leaves the cell, or exactly on a triangle edge lying in the plane, would
+/// otherwise lose the cell that holds its hit. `err = |o·inv|` per ray and axis (clamped
+/// finite). Visiting one cell too many cannot change the closest hit. NaN (`0·inf`: origin on
+/// the plane, direction parallel) keeps the whole interval on both sides, as the `min`/`max`
+/// operand order returns the second operand; `±inf` empties the side the ray is not on. The
+/// scalar and packet traversals both call this, so they agree lane for lane.
+#[inline(always)]
+pub(crate) fn split_intervals<F: LaneF32>(
+    t_split: F,
+    t_enter: F,
+    t_exit: F,
+    err: F,
+    eps: F,
+    max: F,
+) -> (F, F) {
+    let slack = (t_split.abs().min(max) + err).min(max) * eps;
+    (
+        (t_split + slack).min(t_exit),
+        (t_split - slack).max(t_enter),
+    )
+}
+
+/// The root cell, widened by `INTERVAL_EPS` of its size and position so that rounding in the
+/// slab test never drops a hit on its faces.
+#[inline(always)]
+pub(crate) fn root_bounds(tree: &KdTree) -> kdbeam_kernels::Aabb {
+    let b = tree.bounds();
+    if b.is_empty() {
+        return b;
+    }
+    let pad = (b.extent() + b.min.abs().max(b.max.abs())) * INTERVAL_EPS;
+    kdbeam_kernels::Aabb::new(b.min - pad, b.max + pad)
 }
 
 /// Counters of one traversal, summed by callers.

@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdbeam::render::{self, Camera};
 use kdbeam::scene::{self, procedural};
-use kdbeam::trace::{self, Intersector};
+use kdbeam::trace::{self, Culling, Intersector};
 use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
 
 #[derive(Parser)]
@@ -65,6 +65,10 @@ struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Culling in the leaves: none, 4plane, 6plane, 4plane+aperture, 6plane+aperture or auto,
+    /// optionally /masked|/maskless|/adaptive and ,distance-first|,aperture-first.
+    #[arg(long, default_value = "auto")]
+    culling: Culling,
     #[command(flatten)]
     tree: TreeArgs,
 }
@@ -145,7 +149,8 @@ fn packet_shape(rays: usize) -> kdbeam::Result<PacketShape> {
 fn tracer<'t>(tree: &'t KdTree, args: &RenderArgs) -> kdbeam::Result<Tracer<'t>> {
     let t = Tracer::new(tree)
         .with_intersector(args.tree.intersector)
-        .with_packet(packet_shape(args.packet)?);
+        .with_packet(packet_shape(args.packet)?)
+        .with_culling(args.culling);
     match args.isa {
         Some(isa) => t.with_isa(isa),
         None => Ok(t),
@@ -190,23 +195,39 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
         bar.finish_and_clear();
         let hit = frame.hits.iter().filter(|h| h.is_hit()).count();
         println!(
-            "trace      {}x{} primary rays, {} isa, {} packets ({}), {} threads: {:.2} Mrays/s, {:.1}% hit",
+            "trace      {}x{} primary rays, {} isa, {} packets ({}, culling {}), {} threads: {:.2} Mrays/s, {:.1}% hit",
             camera.width,
             camera.height,
             tracer.isa(),
             tracer.packet().ray_count(),
             tracer.intersector().name(),
+            tracer.culling(),
             rayon::current_num_threads(),
             frame.mrays_per_s(),
             100.0 * hit as f64 / frame.rays().max(1) as f64,
         );
         let c = &frame.counters;
         println!(
-            "work       {:.2} leaves/ray, {:.2} tests/ray, {:.2} active rays per packet leaf visit",
+            "work       {:.2} leaves/ray, {:.2} tests/ray of {:.2} potential: {:.1}% eliminated, \
+             {:.2} active rays per leaf visit, beams on {:.1}% of leaf visits",
             c.ray_leaf_visits as f64 / frame.rays().max(1) as f64,
             frame.tests_per_ray(),
+            c.potential_tests as f64 / frame.rays().max(1) as f64,
+            c.eliminated_percent(),
             c.ray_leaf_visits as f64 / c.leaf_visits.max(1) as f64,
+            100.0 * c.beams as f64 / c.leaf_visits.max(1) as f64,
         );
+        if cfg!(feature = "stats") {
+            let pct = |x: u64| 100.0 * x as f64 / c.potential_tests.max(1) as f64;
+            println!(
+                "culled     side planes {:.1}%, near/far {:.1}%, aperture {:.1}% of potential tests; \
+                 {:.1}% of leaf visits have one active ray",
+                pct(c.culled_planes),
+                pct(c.culled_distance),
+                pct(c.culled_aperture),
+                c.single_ray_visits_percent(),
+            );
+        }
         let mut image = frame.shade(&mesh);
         if args.heatmap {
             image = image.beside(&render::heatmap(&tracer, &camera));

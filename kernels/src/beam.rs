@@ -1,0 +1,546 @@
+//! The transient frustum ("beam") of a packet in a leaf: Reshetov, *Faster Ray Packets –
+//! Triangle Intersection through Vertex Culling*, RT07 (`papers/001_…`), section 2.
+//!
+//! Each time a packet enters a leaf, a frustum is built around the rays it uses ([`Beam::new`]),
+//! and every triangle of the leaf is checked against it before any ray is tested
+//! ([`Beam::cull`]). The checks are *obligations*: none ever rejects a triangle that the unculled
+//! path finds as a ray's closest hit. Each stage states its argument below.
+//!
+//! # Coordinates
+//!
+//! Everything is computed in *leaf-local* coordinates `v' = (s·(v[k] − c[k]), v[k1] − c[k1],
+//! v[k2] − c[k2])`: `k` is the prevalent axis, `s = ±1` its direction sign (so every ray used
+//! moves towards `+x'`), and `c` the leaf box corner where the rays enter. The slab of the leaf
+//! on `k` is then `x' ∈ [0, dx]`. Working near the leaf keeps Reshetov's `q0` free of the
+//! catastrophic cancellation `x00·z10 − x10·z00` suffers at coordinates like 1e5.
+//!
+//! # Margins
+//!
+//! Every bound is moved outwards by `δ = 2⁻¹⁴·Λ`, where `Λ` bounds the magnitude of every local
+//! quantity the beam is built from (ray origins, crossings, the leaf's extent). Each local value
+//! carries a rounding error of a few ulps of `Λ` (≈ 6·10⁻⁸·Λ each), far below `δ`. A triangle
+//! with a vertex farther than `16·Λ` from the leaf (where the vertex's own rounding could exceed
+//! `δ`) is never culled. The aperture test adds a barycentric margin and refuses grazing corner
+//! rays (see [`Beam::cull`]).
+
+use glam::Vec3;
+
+use crate::aabb::Aabb;
+use crate::lanes::{LaneF32, LaneMask, Lanes};
+use crate::packet::{RayPacket, MAX_PACKET_RAYS};
+use crate::triangle::Triangle;
+
+/// Which culling stages a beam runs, beyond the four side planes it always checks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Stages {
+    /// The near and far planes (with the side planes: the 6-plane frustum).
+    pub distance: bool,
+    /// The corner-ray aperture test, and the far plane it finds when all four corner rays hit
+    /// one triangle.
+    pub aperture: bool,
+    /// Run the aperture test before the near/far planes (suits real scenes) instead of after
+    /// (suits the Kensler–Shirley synthetic data).
+    pub aperture_first: bool,
+}
+
+/// Triangles culled by each stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CullCounts {
+    /// By one of the four side planes (vertex culling).
+    pub planes: u32,
+    /// By the near or far plane.
+    pub distance: u32,
+    /// By the corner-ray aperture test.
+    pub aperture: u32,
+}
+
+/// The outcome of culling up to 64 triangles.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Survivors {
+    /// Bit `i` set: triangle `i` must be tested.
+    pub mask: u64,
+    /// Bit `i` set: every ray the beam was built from crosses triangle `i` inside the leaf
+    /// (all four corner rays hit it): its per-ray barycentric checks may be skipped.
+    pub inside: u64,
+    /// What each stage culled (counted only with the `stats` feature; zero otherwise).
+    pub culled: CullCounts,
+}
+
+const PLANES: usize = 6;
+/// Room for the plane coefficients of any width: 6 planes padded to two 8-lane vectors.
+const FLAT: usize = 16;
+/// `δ = MARGIN·Λ`.
+const MARGIN: f32 = 1.0 / 16384.0;
+/// Vertices within `REACH·Λ` of the leaf may be culled.
+const REACH: f32 = 16.0;
+/// Barycentric margin of the aperture test.
+const BARY_EPS: f32 = 1.0 / 4096.0;
+/// Corner crossings must lie this far (as a fraction of the slab) inside it.
+const SLAB_EPS: f32 = 1.0 / 1024.0;
+/// Corner rays must meet the plane at more than asin(1/32) ≈ 1.8°.
+const MIN_SIN2: f32 = 1.0 / 1024.0;
+
+/// A transient frustum around some rays of a packet, in one leaf.
+#[derive(Clone, Copy, Debug)]
+pub struct Beam<L: Lanes> {
+    l: L,
+    axes: [usize; 3],
+    sign: f32,
+    corner: Vec3,
+    dx: f32,
+    /// Plane `p` sits in lane `p % WIDTH` of vector `p / WIDTH`: `d = x'·cx + y'·cy + z'·cz + e`,
+    /// negative outside. Planes 4 and 5 are near and far when they are folded in; padding lanes
+    /// have `d = 1`.
+    cx: [L::F32; PLANES],
+    cy: [L::F32; PLANES],
+    cz: [L::F32; PLANES],
+    e: [L::F32; PLANES],
+    e_flat: [f32; FLAT],
+    plane_vectors: usize,
+    distance_folded: bool,
+    near: f32,
+    far: f32,
+    reach: f32,
+    margin: f32,
+    /// Corner rays `A_j + σ·D_j`, `σ ∈ [0, 1]`, from the corners of the entry rectangle at
+    /// `x' = 0` to those of the exit rectangle at `x' = dx` (`A.x' = 0`, `D.x' = dx`).
+    corner_a: [[f32; 4]; 2],
+    corner_d: [[f32; 4]; 2],
+    /// Largest `x'` where a ray used starts, smallest where one ends.
+    start_max: f32,
+    end_min: f32,
+    stages: Stages,
+}
+
+impl<L: Lanes> Beam<L> {
+    /// The frustum around the rays `used` of `p` in a leaf with (tight) box `leaf`.
+    ///
+    /// Returns `None` when no axis has a direction component of one non-zero sign for every ray
+    /// used (no prevalent axis: the caller tests unculled), when `used` is empty, or when the
+    /// box or a ray is not finite. `best_t`, when given, holds each ray's closest hit so far:
+    /// if every ray used has one (bit set in `has_hit`), triangles entirely beyond all of them
+    /// are culled by the far plane.
+    ///
+    /// **Prevalent axis.** Among axes on which every ray used has a direction component of one
+    /// non-zero sign, the one whose smallest `|d|` is largest (Reshetov: the largest prevalent
+    /// axis is about 30% faster than the first suitable one); slopes `d_y/d_x` are then bounded.
+    ///
+    /// **Rectangles.** Where each ray crosses `x' = 0` and `x' = dx`, take `y'` and `z'`; the
+    /// rectangles `[y00, y01] × [z00, z01]` and `[y10, y11] × [z10, z11]` bound them. They are
+    /// not clamped to the leaf: that would not be conservative. Between the two planes a ray's
+    /// `y'` is the linear interpolation of its crossings, so its whole segment in the slab lies
+    /// in `F = {x' ∈ [0, dx], ymin(x') ≤ y' ≤ ymax(x'), zmin(x') ≤ z' ≤ zmax(x')}`, the convex
+    /// hull of the two rectangles. A flat leaf (`dx = 0`) is widened first (Reshetov: the
+    /// expansion costs nothing, since only the flat leaf's own triangles are tested).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn new(
+        l: L,
+        p: &RayPacket,
+        used: u64,
+        leaf: &Aabb,
+        best_t: Option<(&[f32; MAX_PACKET_RAYS], u64)>,
+        stages: Stages,
+    ) -> Option<Self> {
+        if used == 0 || !leaf.min.is_finite() || !leaf.max.is_finite() {
+            return None;
+        }
+        let w = L::WIDTH;
+        let groups = p.len().div_ceil(w);
+        let inf = l.splat(f32::INFINITY);
+        // Prevalent axis: the largest smallest-|d| among sign-consistent axes.
+        let mut axis = None;
+        let mut best = 0.0f32;
+        for a in 0..3 {
+            let (mut lo, mut hi) = (inf, -inf);
+            for g in 0..groups {
+                let act = l.mask_from_bits(group(used, g, w));
+                if act.none() {
+                    continue;
+                }
+                let d = l.load(&p.dir[a][g * w..]);
+                lo = L::F32::select(act, d, inf).min(lo);
+                hi = L::F32::select(act, d, -inf).max(hi);
+            }
+            let (lo, hi) = (lo.reduce_min(), hi.reduce_max());
+            let smallest = if lo > 0.0 {
+                lo
+            } else if hi < 0.0 {
+                -hi
+            } else {
+                0.0
+            };
+            if smallest > best && smallest.is_finite() {
+                best = smallest;
+                axis = Some((a, if lo > 0.0 { 1.0 } else { -1.0 }));
+            }
+        }
+        let (k, sign) = axis?;
+        let axes = [k, (k + 1) % 3, (k + 2) % 3];
+        let ext = leaf.extent();
+        let mut corner = Vec3::new(leaf.min[axes[0]], leaf.min[axes[1]], leaf.min[axes[2]]);
+        let mut dx = ext[k];
+        if sign < 0.0 {
+            corner.x = leaf.max[k];
+        }
+        if dx <= 0.0 {
+            // Widen a flat leaf symmetrically so that `dx > 0` and the division below is safe.
+            let e = (ext.max_element() + corner.abs().max_element()) * (1.0 / 1024.0) + 1e-30;
+            corner.x -= sign * e;
+            dx = 2.0 * e;
+        }
+
+        // Crossings of every ray used with x' = 0 and x' = dx, and its start and end along x'.
+        let splat_c = [l.splat(corner.x), l.splat(corner.y), l.splat(corner.z)];
+        let (s, zero) = (l.splat(sign), l.splat(0.0));
+        let ldx = l.splat(dx);
+        let mut y0 = (inf, -inf);
+        let mut y1 = (inf, -inf);
+        let mut z0 = (inf, -inf);
+        let mut z1 = (inf, -inf);
+        let mut start_min = inf;
+        let mut start_max = -inf;
+        let mut end_min = inf;
+        let mut hit_max = -inf;
+        let mut mag = zero;
+        for g in 0..groups {
+            let act = l.mask_from_bits(group(used, g, w));
+            if act.none() {
+                continue;
+            }
+            let b = g * w;
+            let ox = s * (l.load(&p.org[axes[0]][b..]) - splat_c[0]);
+            let oy = l.load(&p.org[axes[1]][b..]) - splat_c[1];
+            let oz = l.load(&p.org[axes[2]][b..]) - splat_c[2];
+            let dxr = s * l.load(&p.dir[axes[0]][b..]);
+            let sy = l.load(&p.dir[axes[1]][b..]) / dxr;
+            let sz = l.load(&p.dir[axes[2]][b..]) / dxr;
+            let cy0 = oy - ox * sy;
+            let cz0 = oz - ox * sz;
+            let cy1 = cy0 + ldx * sy;
+            let cz1 = cz0 + ldx * sz;
+            let keep = |v: L::F32, r: (L::F32, L::F32)| {
+                (
+                    L::F32::select(act, v, inf).min(r.0),
+                    L::F32::select(act, v, -inf).max(r.1),
+                )
+            };
+            y0 = keep(cy0, y0);
+            y1 = keep(cy1, y1);
+            z0 = keep(cz0, z0);
+            z1 = keep(cz1, z1);
+            let start = ox + l.load(&p.tmin[b..]) * dxr;
+            let end = ox + l.load(&p.tmax[b..]) * dxr;
+            start_min = L::F32::select(act, start, inf).min(start_min);
+            start_max = L::F32::select(act, start, -inf).max(start_max);
+            end_min = L::F32::select(act, end, inf).min(end_min);
+            if let Some((t, _)) = best_t {
+                let at = ox + l.load(&t[b..]) * dxr;
+                hit_max = L::F32::select(act, at, -inf).max(hit_max);
+            }
+            let m = ox
+                .abs()
+                .max(oy.abs())
+                .max(oz.abs())
+                .max(cy0.abs().max(cz0.abs()));
+            let m = m.max(cy1.abs().max(cz1.abs()));
+            mag = L::F32::select(act, m, zero).max(mag);
+        }
+        let lambda = mag.reduce_max() + dx + ext.max_element();
+        let margin = lambda * MARGIN;
+        if !(margin.is_finite() && lambda.is_finite()) {
+            return None;
+        }
+        let (y00, y01) = (y0.0.reduce_min() - margin, y0.1.reduce_max() + margin);
+        let (y10, y11) = (y1.0.reduce_min() - margin, y1.1.reduce_max() + margin);
+        let (z00, z01) = (z0.0.reduce_min() - margin, z0.1.reduce_max() + margin);
+        let (z10, z11) = (z1.0.reduce_min() - margin, z1.1.reduce_max() + margin);
+        let start_max = start_max.reduce_max();
+        let end_min = end_min.reduce_min();
+
+        // Near: every ray used starts at x' >= near. Far: every ray used already has a hit at
+        // x' <= far (only when all of them have one).
+        let near = if stages.distance {
+            start_min.reduce_min() - margin
+        } else {
+            f32::NEG_INFINITY
+        };
+        let far = match best_t {
+            Some((_, has_hit)) if stages.distance && used & !has_hit == 0 => {
+                hit_max.reduce_max() + margin
+            }
+            _ => f32::INFINITY,
+        };
+
+        // Reshetov's eq. (5): q1 (the x' coefficients) and q0 (the offsets) of the four side
+        // planes, in local coordinates where x00 = 0 and x10 = dx, so q0 = [−z00, y01, z01, −y00].
+        let inv_dx = 1.0 / dx;
+        let mut cx = [0.0f32; FLAT];
+        let mut cy = [0.0f32; FLAT];
+        let mut cz = [0.0f32; FLAT];
+        let mut e = [1.0f32; FLAT];
+        for (pl, (qx, qy, qz, q0)) in [
+            ((z00 - z10) * inv_dx, 0.0, 1.0, -z00),
+            ((y11 - y01) * inv_dx, -1.0, 0.0, y01),
+            ((z11 - z01) * inv_dx, 0.0, -1.0, z01),
+            ((y00 - y10) * inv_dx, 1.0, 0.0, -y00),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            (cx[pl], cy[pl], cz[pl], e[pl]) = (qx, qy, qz, q0);
+        }
+        let distance_folded = stages.distance && !(stages.aperture && stages.aperture_first);
+        if distance_folded {
+            (cx[4], e[4]) = (1.0, -near);
+            (cx[5], e[5]) = (-1.0, far);
+        }
+        let plane_vectors = if distance_folded { PLANES } else { 4 }.div_ceil(w);
+        let at = |flat: &[f32; FLAT], v: usize| l.load(&flat[(v * w).min(FLAT - w)..]);
+        let corner_a = [[y00, y01, y01, y00], [z00, z00, z01, z01]];
+        let corner_d = [
+            [y10 - y00, y11 - y01, y11 - y01, y10 - y00],
+            [z10 - z00, z10 - z00, z11 - z01, z11 - z01],
+        ];
+        Some(Beam {
+            l,
+            axes,
+            sign,
+            corner,
+            dx,
+            cx: core::array::from_fn(|v| at(&cx, v)),
+            cy: core::array::from_fn(|v| at(&cy, v)),
+            cz: core::array::from_fn(|v| at(&cz, v)),
+            e: core::array::from_fn(|v| at(&e, v)),
+            e_flat: e,
+            plane_vectors,
+            distance_folded,
+            near,
+            far,
+            reach: REACH * lambda,
+            margin,
+            corner_a,
+            corner_d,
+            start_max,
+            end_min,
+            stages,
+        })
+    }
+
+    /// The prevalent axis (0, 1, 2 for x, y, z).
+    pub fn axis(&self) -> usize {
+        self.axes[0]
+    }
+
+    /// `v` in leaf-local coordinates.
+    #[inline(always)]
+    fn local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(
+            self.sign * (v[self.axes[0]] - self.corner.x),
+            v[self.axes[1]] - self.corner.y,
+            v[self.axes[2]] - self.corner.z,
+        )
+    }
+
+    /// Culls `tris` (at most 64) against the beam; the survivors must be tested.
+    ///
+    /// **Side planes (vertex culling, Reshetov eq. 5).** For a local vertex `v`,
+    /// `d = [v_z, −v_y, −v_z, v_y] + v_x·q1 + q0 = [v_z − zmin(v_x), ymax(v_x) − v_y,
+    /// zmax(v_x) − v_z, v_y − ymin(v_x)]`. A lane negative for all three vertices puts the whole
+    /// triangle (the convex hull of its vertices) outside a half-space that contains `F`, and
+    /// every ray used lies in `F` within the slab, where any hit it has in this leaf lies: cull.
+    /// A hit the unculled path finds outside this leaf's slab is found again in the leaf that
+    /// holds it, which the traversal still enters (it stops only once the closest hit lies
+    /// before the next cell).
+    ///
+    /// **Near and far planes.** Every ray used starts at `x' >= near`, so a triangle entirely
+    /// at `x' < near` is behind all of them. Every ray used already has a hit at `x' <= far`
+    /// (from its best hit so far, or from an occluder the aperture test proved every ray hits),
+    /// so a triangle entirely at `x' > far` can only be hit farther away: cull.
+    ///
+    /// **Aperture (corner rays).** Only when all four corner rays cross the triangle's plane
+    /// strictly inside the slab with one sign of `n·D` (the guard of DESIGN.md): then the plane
+    /// separates the entry rectangle from the exit rectangle, so `F ∩ plane` is exactly the
+    /// convex hull of the four crossings (the four corner edges are the only edges of `F` that
+    /// cross it), and barycentrics are affine on the plane. If `u < 0` at all four crossings, or
+    /// `v < 0`, or `u + v > 1`, no point of `F ∩ plane` is on the triangle: cull. If all four are
+    /// inside, every ray used crosses the triangle at `x' <= max crossing`; when, moreover,
+    /// every ray used starts before the first crossing and ends after the last, all of them hit
+    /// it, and it becomes the far plane for the triangles after it. Grazing corner rays
+    /// (`sin < 1/32`) and crossings near the slab's faces fail the guard, and the barycentric
+    /// bounds carry a margin of 2⁻¹², so that rounding never decides.
+    #[inline(always)]
+    pub fn cull(&mut self, tris: &[Triangle]) -> Survivors {
+        let l = self.l;
+        let zero = l.splat(0.0);
+        let mut out = Survivors::default();
+        for (i, tri) in tris.iter().enumerate().take(64) {
+            let v = [self.local(tri.v0), self.local(tri.v1), self.local(tri.v2)];
+            let reach = v[0].abs().max(v[1].abs()).max(v[2].abs()).max_element();
+            if !(reach <= self.reach) {
+                out.mask |= 1 << i;
+                continue;
+            }
+            let mut culled = false;
+            for pv in 0..self.plane_vectors {
+                let mut outside = !l.mask_from_bits(0);
+                for vk in &v {
+                    let d = l.splat(vk.x).mul_add(
+                        self.cx[pv],
+                        l.splat(vk.y)
+                            .mul_add(self.cy[pv], l.splat(vk.z).mul_add(self.cz[pv], self.e[pv])),
+                    );
+                    outside = outside & d.lt(zero);
+                }
+                if outside.any() {
+                    culled = true;
+                    break;
+                }
+            }
+            if culled {
+                #[cfg(feature = "stats")]
+                {
+                    out.culled.planes += 1;
+                }
+                continue;
+            }
+            if self.stages.aperture {
+                match self.aperture(&v) {
+                    Aperture::Outside => {
+                        #[cfg(feature = "stats")]
+                        {
+                            out.culled.aperture += 1;
+                        }
+                        continue;
+                    }
+                    Aperture::Occluder(x_far) => {
+                        out.inside |= 1 << i;
+                        if x_far < self.far && self.stages.distance {
+                            self.set_far(x_far);
+                        }
+                    }
+                    Aperture::Unknown => {}
+                }
+            }
+            if self.stages.distance && !self.distance_folded {
+                let lo = v[0].x.min(v[1].x).min(v[2].x);
+                let hi = v[0].x.max(v[1].x).max(v[2].x);
+                if hi < self.near || lo > self.far {
+                    #[cfg(feature = "stats")]
+                    {
+                        out.culled.distance += 1;
+                    }
+                    continue;
+                }
+            }
+            out.mask |= 1 << i;
+        }
+        out
+    }
+
+    /// Moves the far plane to `x_far`.
+    #[inline(always)]
+    fn set_far(&mut self, x_far: f32) {
+        self.far = x_far;
+        if self.distance_folded {
+            let w = L::WIDTH;
+            self.e_flat[5] = x_far;
+            let v = 5 / w;
+            self.e[v] = self.l.load(&self.e_flat[(v * w).min(FLAT - w)..]);
+        }
+    }
+
+    /// The corner-ray test of one triangle, given its local vertices.
+    #[inline(always)]
+    fn aperture(&self, v: &[Vec3; 3]) -> Aperture {
+        let l = self.l;
+        let w = L::WIDTH;
+        let e0 = v[1] - v[0];
+        let e1 = v[0] - v[2];
+        let n = e0.cross(e1);
+        let n2 = n.length_squared();
+        if !(n2 > 0.0) {
+            return Aperture::Unknown;
+        }
+        let (nx, ny, nz) = (l.splat(n.x), l.splat(n.y), l.splat(n.z));
+        let ldx = l.splat(self.dx);
+        let zero = l.splat(0.0);
+        let full = if w >= 4 { (1u32 << w) - 1 } else { 1 };
+        let (mut pos, mut neg, mut guard) = (true, true, true);
+        let (mut u_neg, mut v_neg, mut uv_big, mut inside) = (true, true, true, true);
+        let (mut s_min, mut s_max) = (f32::INFINITY, f32::NEG_INFINITY);
+        for c in 0..4usize.div_ceil(w) {
+            // Corner lanes: corner j in lane j (padding lanes repeat corners, which leaves
+            // every "all four" reduction unchanged).
+            let pick = |a: &[f32; 4]| {
+                if w == 1 {
+                    l.splat(a[c])
+                } else {
+                    let mut buf = [0.0f32; 8];
+                    for (j, b) in buf.iter_mut().enumerate().take(w) {
+                        *b = a[j % 4];
+                    }
+                    l.load(&buf)
+                }
+            };
+            let (ay, az) = (pick(&self.corner_a[0]), pick(&self.corner_a[1]));
+            let (dy, dz) = (pick(&self.corner_d[0]), pick(&self.corner_d[1]));
+            let qx = l.splat(v[0].x);
+            let qy = l.splat(v[0].y) - ay;
+            let qz = l.splat(v[0].z) - az;
+            let det = nx * ldx + ny * dy + nz * dz;
+            let num = nx * qx + ny * qy + nz * qz;
+            let d2 = ldx * ldx + dy * dy + dz * dz;
+            pos &= det.gt(zero).bits() == full;
+            neg &= det.lt(zero).bits() == full;
+            guard &= (det * det).ge(l.splat(MIN_SIN2 * n2) * d2).bits() == full;
+            let r = l.splat(1.0) / det;
+            let s = num * r;
+            guard &= s.ge(l.splat(SLAB_EPS)).bits() == full;
+            guard &= s.le(l.splat(1.0 - SLAB_EPS)).bits() == full;
+            let wx = qy * dz - qz * dy;
+            let wy = qz * ldx - qx * dz;
+            let wz = qx * dy - qy * ldx;
+            let u = (wx * l.splat(e1.x) + wy * l.splat(e1.y) + wz * l.splat(e1.z)) * r;
+            let vv = (wx * l.splat(e0.x) + wy * l.splat(e0.y) + wz * l.splat(e0.z)) * r;
+            let (eps, one) = (l.splat(BARY_EPS), l.splat(1.0));
+            u_neg &= u.lt(-eps).bits() == full;
+            v_neg &= vv.lt(-eps).bits() == full;
+            uv_big &= (u + vv).gt(one + eps).bits() == full;
+            inside &= (u.ge(eps) & vv.ge(eps) & (u + vv).le(one - eps)).bits() == full;
+            s_min = s_min.min(s.reduce_min());
+            s_max = s_max.max(s.reduce_max());
+        }
+        if !(guard && (pos || neg)) {
+            return Aperture::Unknown;
+        }
+        if u_neg || v_neg || uv_big {
+            return Aperture::Outside;
+        }
+        let slack = self.margin + SLAB_EPS * self.dx;
+        if inside
+            && self.start_max <= s_min * self.dx - slack
+            && self.end_min >= s_max * self.dx + slack
+        {
+            return Aperture::Occluder(s_max * self.dx + slack);
+        }
+        Aperture::Unknown
+    }
+}
+
+/// What the corner rays say of one triangle.
+enum Aperture {
+    /// `F ∩ plane` misses the triangle.
+    Outside,
+    /// Every ray used hits the triangle at `x' <=` this.
+    Occluder(f32),
+    /// The guard failed, or the crossings straddle the triangle.
+    Unknown,
+}
+
+/// The bits of group `g` of `mask`.
+#[inline(always)]
+fn group(mask: u64, g: usize, w: usize) -> u32 {
+    let lanes = if w >= 64 { u64::MAX } else { (1u64 << w) - 1 };
+    ((mask >> (g * w)) & lanes) as u32
+}
