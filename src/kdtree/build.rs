@@ -322,34 +322,25 @@ fn split_node(
     scratch.above_index.resize(n, u32::MAX);
     for (i, &id) in node.ids.iter().enumerate() {
         let side = scratch.sides[i];
-        if side != ABOVE {
-            let clipped = match side {
-                BOTH => clipped_bounds(&context.triangles[id as usize], &below_cell),
-                _ => None,
-            };
-            if side == BELOW || clipped.is_some() {
-                let index = below_ids.len() as u32;
-                scratch.below_index[i] = index;
-                below_ids.push(id);
-                if let Some(b) = clipped {
-                    push_box_events(&mut scratch.new_below, &b, index);
-                }
-            }
-        }
-        if side != BELOW {
-            let clipped = match side {
-                BOTH => clipped_bounds(&context.triangles[id as usize], &above_cell),
-                _ => None,
-            };
-            if side == ABOVE || clipped.is_some() {
-                let index = above_ids.len() as u32;
-                scratch.above_index[i] = index;
-                above_ids.push(id);
-                if let Some(b) = clipped {
-                    push_box_events(&mut scratch.new_above, &b, index);
-                }
-            }
-        }
+        let tri = &context.triangles[id as usize];
+        scratch.below_index[i] = admit(
+            tri,
+            id,
+            side,
+            BELOW,
+            &below_cell,
+            &mut below_ids,
+            &mut scratch.new_below,
+        );
+        scratch.above_index[i] = admit(
+            tri,
+            id,
+            side,
+            ABOVE,
+            &above_cell,
+            &mut above_ids,
+            &mut scratch.new_above,
+        );
     }
 
     // Distribute the one-sided triangles' events in order, then merge in the clipped ones.
@@ -385,6 +376,34 @@ fn split_node(
             cell: above_cell,
         },
     )
+}
+
+/// Admits triangle `id` of side `side` to the child that keeps the `only` side and lies in
+/// `cell`: one-sided triangles as they are, straddling ones if their clipped part is not empty
+/// (its events go to `new_events`). Returns its index in the child, `u32::MAX` if left out.
+fn admit(
+    tri: &Triangle,
+    id: u32,
+    side: Side,
+    only: Side,
+    cell: &Aabb,
+    ids: &mut Vec<u32>,
+    new_events: &mut [Vec<Event>; 3],
+) -> u32 {
+    let clipped = match side {
+        BOTH => match clipped_bounds(tri, cell) {
+            Some(b) => Some(b),
+            None => return u32::MAX,
+        },
+        s if s == only => None,
+        _ => return u32::MAX,
+    };
+    let index = ids.len() as u32;
+    ids.push(id);
+    if let Some(b) = clipped {
+        push_box_events(new_events, &b, index);
+    }
+    index
 }
 
 #[cfg(all(test, feature = "parallel"))]
