@@ -4,10 +4,14 @@
 
 mod error;
 pub mod kdtree;
+pub mod render;
 pub mod scene;
+pub mod trace;
 
 pub use error::{Error, Result};
+pub use glam::Vec3;
 pub use kdbeam_kernels as kernels;
-pub use kdbeam_kernels::{Aabb, Hit, Isa, Ray, Triangle};
+pub use kdbeam_kernels::{Aabb, Hit, HitPacket, Isa, PacketShape, Ray, RayPacket, Triangle};
 pub use kdtree::{BuildParams, BuildStats, KdTree};
 pub use scene::Mesh;
+pub use trace::{Intersector, Tracer};

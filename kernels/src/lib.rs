@@ -9,6 +9,7 @@
 pub mod aabb;
 pub mod intersect;
 pub mod lanes;
+pub mod packet;
 pub mod ray;
 pub mod slab;
 pub mod triangle;
@@ -16,5 +17,6 @@ pub mod triangle;
 pub use aabb::Aabb;
 pub use glam::{DVec3, Vec3};
 pub use lanes::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+pub use packet::{HitPacket, PacketShape, RayPacket, MAX_PACKET_RAYS};
 pub use ray::{Hit, Ray};
 pub use triangle::{KsTriangle, Triangle};

@@ -1,1 +1,90 @@
-//! Ray and packet × box clipping.
+//! Ray and packet × box clipping by slabs (Kay & Kajiya), robust to zero direction components.
+//!
+//! Callers pass `inv_dir = 1 / dir` per component (`Vec3::recip`, or `l.splat(1.0) / d` per
+//! lane): a zero component gives `±inf`, which is exactly what this code expects, so no "safe
+//! reciprocal" is needed or wanted (replacing `1/0` by a large finite number makes rays that
+//! start just outside a slab enter it).
+//!
+//! Per axis, the plane the ray enters through is `min` when `inv_dir >= 0` and `max` when
+//! `inv_dir < 0` (`inv_dir = ±inf` for `d = ±0`, so the sign of the zero picks the planes), and
+//! `t_enter = (enter − o)·inv`, `t_exit = (exit − o)·inv`. Choosing the planes by sign, instead of
+//! taking `min(t0, t1)`/`max(t0, t1)`, keeps entry and exit apart even when one of them is NaN.
+//!
+//! **Zero components.** With `d = ±0` and the origin strictly inside the slab, the products are
+//! `−inf` (enter) and `+inf` (exit): no constraint; strictly outside, one is `+inf` or `−inf` and
+//! the interval is empty. With the origin **exactly on** a plane, `0·inf = NaN`: the ray lies in
+//! the plane, which the closed box contains, so that plane must constrain nothing. The running
+//! interval is therefore updated as `tnear = t_enter.max(tnear)` and `tfar = t_exit.min(tfar)`
+//! with the new value as the **first** operand: [`LaneF32::min`]/[`LaneF32::max`] (x86
+//! `minps`/`maxps`) return their second operand when either is NaN, so a NaN plane distance is
+//! discarded. The same rule makes an axis whose origin or `inv_dir` component is NaN constrain
+//! nothing (such a ray must be rejected by the triangle test, which every intersector does);
+//! a NaN `tmin` or `tmax` gives no interval.
+//!
+//! [`ray_box`] and [`slab_lanes`] share this code, so every lane of every ISA computes exactly
+//! what the single-ray form does.
+
+use glam::Vec3;
+
+use crate::aabb::Aabb;
+use crate::intersect::splat3;
+use crate::lanes::{LaneF32, Lanes};
+
+/// Clips `[near, far]` by the three slabs of `[lo, hi]` (see the module documentation).
+#[inline(always)]
+fn clip<F: LaneF32>(
+    org: &[F; 3],
+    inv_dir: &[F; 3],
+    [lo, hi]: [[F; 3]; 2],
+    zero: F,
+    mut near: F,
+    mut far: F,
+) -> (F, F) {
+    for k in 0..3 {
+        let backwards = inv_dir[k].lt(zero);
+        let enter = F::select(backwards, hi[k], lo[k]);
+        let exit = F::select(backwards, lo[k], hi[k]);
+        near = ((enter - org[k]) * inv_dir[k]).max(near);
+        far = ((exit - org[k]) * inv_dir[k]).min(far);
+    }
+    (near, far)
+}
+
+/// The part `[tnear, tfar]` of `[tmin, tmax]` where the ray `org + t·d` is inside the closed
+/// box `b`, given `inv_dir = 1 / d` per component; `None` when it is empty.
+///
+/// Zero direction components (`inv_dir = ±inf`) are exact, including an origin on a face plane
+/// (the ray then lies in the face: inside). An empty box ([`Aabb::EMPTY`]) gives `None` for any
+/// direction without NaN or infinite components. NaN in
+/// `tmin`/`tmax` gives `None`; NaN in an origin or `inv_dir` component leaves that axis
+/// unconstrained.
+#[inline(always)]
+pub fn ray_box(org: Vec3, inv_dir: Vec3, tmin: f32, tmax: f32, b: &Aabb) -> Option<(f32, f32)> {
+    let (near, far) = clip(
+        &org.to_array(),
+        &inv_dir.to_array(),
+        [b.min.to_array(), b.max.to_array()],
+        0.0,
+        tmin,
+        tmax,
+    );
+    (near <= far).then_some((near, far))
+}
+
+/// [`ray_box`] for `WIDTH` rays with per-lane `[tmin, tmax]`: `(mask, tnear, tfar)`.
+///
+/// Lane `i` is set in the mask when [`ray_box`] returns `Some` for ray `i`, and then `tnear`,
+/// `tfar` equal its result bit for bit; in the other lanes they are unspecified.
+#[inline(always)]
+pub fn slab_lanes<L: Lanes>(
+    l: L,
+    org: &[L::F32; 3],
+    inv_dir: &[L::F32; 3],
+    tmin: L::F32,
+    tmax: L::F32,
+    b: &Aabb,
+) -> (L::Mask, L::F32, L::F32) {
+    let bounds = [splat3(l, b.min), splat3(l, b.max)];
+    let (near, far) = clip(org, inv_dir, bounds, l.splat(0.0), tmin, tmax);
+    (near.le(far), near, far)
+}

@@ -4,6 +4,8 @@ mod mesh;
 mod obj;
 pub mod procedural;
 pub mod rng;
+mod shared;
 
 pub use mesh::Mesh;
 pub use obj::load_obj;
+pub use shared::{shared_scene, shared_scenes_dir, SharedScene, SHARED_SCENES};

@@ -1,1 +1,98 @@
-//! Ray × triangle tests.
+//! Ray × triangle tests: Kensler–Shirley (the baseline), watertight (Woop, Benthin & Wald), and
+//! the watertight test in `f64` as an oracle.
+//!
+//! Every test accepts a hit on the **closed** interval `tmin <= t <= tmax`; callers break ties
+//! between triangles with [`Hit::is_beaten_by`](crate::Hit::is_beaten_by). Degenerate triangles,
+//! rays with a NaN or zero direction and rays with a NaN origin never hit, and nothing panics.
+//!
+//! Each test has a single-ray form and a lane form generic over [`Lanes`]; the two share their
+//! arithmetic (the helpers below), so that with the same inputs every lane of the lane form
+//! computes bit for bit what the single-ray form does.
+
+use glam::Vec3;
+
+use crate::lanes::{LaneF32, Lanes};
+
+pub mod kensler_shirley;
+pub mod oracle;
+pub mod watertight;
+
+/// Where a ray meets a triangle: `t` along the ray, barycentrics `u` (weight of `v1`) and `v`
+/// (weight of `v2`); the point is `(1 − u − v)·v0 + u·v1 + v·v2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangleHit {
+    /// Ray parameter of the hit, in `[tmin, tmax]`.
+    pub t: f32,
+    /// Barycentric weight of `v1`, `>= 0`.
+    pub u: f32,
+    /// Barycentric weight of `v2`, `>= 0`; `u + v <= 1` up to one rounding.
+    pub v: f32,
+}
+
+/// `WIDTH` rays in structure-of-arrays form: lane `i` of `org[k]` is component `k` of ray `i`'s
+/// origin.
+#[derive(Clone, Copy, Debug)]
+pub struct LaneRays<L: Lanes> {
+    /// Origins, per axis.
+    pub org: [L::F32; 3],
+    /// Directions (any length), per axis.
+    pub dir: [L::F32; 3],
+}
+
+impl<L: Lanes> LaneRays<L> {
+    /// The origin of lane `i`. Panics if `i >= L::WIDTH`.
+    #[inline(always)]
+    pub fn origin(&self, i: usize) -> Vec3 {
+        Vec3::from_array(self.org.map(|c| c.extract(i)))
+    }
+
+    /// The direction of lane `i`. Panics if `i >= L::WIDTH`.
+    #[inline(always)]
+    pub fn direction(&self, i: usize) -> Vec3 {
+        Vec3::from_array(self.dir.map(|c| c.extract(i)))
+    }
+}
+
+/// The hits of `WIDTH` rays against one triangle: lane `i` of `mask` says whether ray `i` hit.
+///
+/// `t`, `u` and `v` mean what [`TriangleHit`]'s fields mean in the lanes set in `mask`; in the
+/// other lanes they are unspecified (often NaN).
+#[derive(Clone, Copy, Debug)]
+pub struct LaneHits<L: Lanes> {
+    /// Which lanes hit.
+    pub mask: L::Mask,
+    /// Ray parameters.
+    pub t: L::F32,
+    /// Barycentric weights of `v1`.
+    pub u: L::F32,
+    /// Barycentric weights of `v2`.
+    pub v: L::F32,
+}
+
+/// `a · b`, summed as `(a0·b0 + a1·b1) + a2·b2`, never fused.
+#[inline(always)]
+pub(crate) fn dot3<F: LaneF32>(a: [F; 3], b: [F; 3]) -> F {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// `a × b`, each component `a_i·b_j − a_j·b_i`, never fused.
+#[inline(always)]
+pub(crate) fn cross3<F: LaneF32>(a: [F; 3], b: [F; 3]) -> [F; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `a − b` per component.
+#[inline(always)]
+pub(crate) fn sub3<F: LaneF32>(a: [F; 3], b: [F; 3]) -> [F; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `v` broadcast to every lane, per component.
+#[inline(always)]
+pub(crate) fn splat3<L: Lanes>(l: L, v: Vec3) -> [L::F32; 3] {
+    v.to_array().map(|c| l.splat(c))
+}

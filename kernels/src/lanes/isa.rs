@@ -110,3 +110,6 @@ impl FromStr for Isa {
         Err(ParseIsaError)
     }
 }
+
+#[cfg(feature = "std")]
+impl std::error::Error for ParseIsaError {}

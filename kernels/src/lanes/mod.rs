@@ -17,16 +17,22 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
+#[cfg(feature = "std")]
+mod dispatch;
 mod isa;
 mod portable;
+#[cfg(target_arch = "x86_64")]
+mod proof;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod sse;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx::{Avx, AvxF32, AvxMask};
+#[cfg(feature = "std")]
+pub use dispatch::run_on;
 pub use isa::{Isa, ParseIsaError};
-pub use portable::{Portable, PortableMask};
+pub use portable::{Portable, PortableF32, PortableMask};
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]
 pub use sse::{Sse, SseF32, SseMask};

@@ -1,0 +1,66 @@
+//! Primary rays through real and built-in scenes, per ISA and packet size, single thread.
+//!
+//! `cargo bench --bench scenes`; `KDBEAM_SCENES` points at the shared meshes (the built-in
+//! default scene is measured when they are missing). The scalar single-ray path is the
+//! baseline in the same group.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kdbeam::render::{trace_primary, Camera};
+use kdbeam::scene::{self, procedural};
+use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
+
+const SIZE: u32 = 256;
+
+fn scenes() -> Vec<(String, Mesh)> {
+    let mut out = Vec::new();
+    for name in ["bunny", "sponza", "dragon"] {
+        if let Some(path) = scene::shared_scene(name) {
+            out.push((
+                name.to_string(),
+                scene::load_obj(path).expect("shared scene loads"),
+            ));
+        }
+    }
+    if out.is_empty() {
+        eprintln!("shared scenes not found: measuring builtin:default only");
+        out.push((
+            "builtin:default".into(),
+            procedural::builtin("default").expect("built-in"),
+        ));
+    }
+    out
+}
+
+fn primary(c: &mut Criterion) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("pool");
+    for (name, mesh) in scenes() {
+        let tree = KdTree::build(&mesh, &BuildParams::default()).expect("tree");
+        let camera = Camera::standard(&tree.bounds(), SIZE, SIZE);
+        let rays = camera.rays();
+        let mut g = c.benchmark_group(format!("primary/{name}"));
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        g.sample_size(10);
+        let scalar = Tracer::new(&tree).with_isa(Isa::Scalar).expect("scalar");
+        g.bench_function("scalar-single-ray", |b| {
+            b.iter(|| rays.iter().filter(|r| scalar.intersect(r).is_hit()).count())
+        });
+        for isa in Isa::available() {
+            for shape in [PacketShape::P2x2, PacketShape::P4x4, PacketShape::P8x8] {
+                let t = Tracer::new(&tree)
+                    .with_isa(isa)
+                    .expect("available")
+                    .with_packet(shape);
+                g.bench_with_input(BenchmarkId::new(isa.name(), shape.len()), &t, |b, t| {
+                    b.iter(|| pool.install(|| trace_primary(t, &camera, &|_| {}).counters.tests))
+                });
+            }
+        }
+        g.finish();
+    }
+}
+
+criterion_group!(benches, primary);
+criterion_main!(benches);

@@ -1,0 +1,76 @@
+//! The Kensler–Shirley ray × triangle test (RT06), the baseline.
+//!
+//! Per triangle ([`KsTriangle`]): `e0 = p1 − p0`, `e1 = p0 − p2`, `n = e0 × e1`. Per ray, with
+//! `c = p0 − o`:
+//!
+//! ```text
+//! r = 1 / (n · d)      t = (n · c) · r
+//! w = c × d            u = (w · e1) · r      v = (w · e0) · r
+//! ```
+//!
+//! **Which barycentric is which.** Write the hit as `o + t·d = p0 + u·(p1 − p0) + v·(p2 − p0)
+//! = p0 + u·e0 − v·e1`, i.e. `t·d − c = u·e0 − v·e1`. Dotting with `n` kills both edges:
+//! `t = (n·c)/(n·d)`. Dotting with `d × e1` kills `d` and `e1`: `−c·(d × e1) = u·e0·(d × e1)`;
+//! with the triple products `c·(d × e1) = (c × d)·e1 = w·e1` and `e0·(d × e1) = −(n·d)` this is
+//! `u = (w·e1)/(n·d)`. Dotting with `d × e0` likewise gives `v = (w·e0)/(n·d)`. So RT06's `u` is
+//! the weight of `p1` and `v` the weight of `p2`, as [`TriangleHit`] wants: no sign to fix.
+//!
+//! Edge cases: a degenerate triangle has `n = 0` (exactly, when two vertices are equal), so
+//! `r = ±inf` and `t = 0·inf = NaN`; a ray parallel to the plane has `r = ±inf` and then `u` or
+//! `v` is `±inf` or NaN. Every accepting comparison is written so that NaN fails it, and
+//! `u, v >= 0, u + v <= 1` rejects infinities, so neither ever hits. No FMA: with [`Scalar`]
+//! lanes, [`intersect_lanes`] equals [`intersect`] bit for bit, and so does every lane of every
+//! ISA.
+//!
+//! [`Scalar`]: crate::lanes::Scalar
+
+use super::{cross3, dot3, splat3, sub3, LaneHits, LaneRays, TriangleHit};
+use crate::lanes::{LaneF32, Lanes};
+use crate::ray::Ray;
+use crate::triangle::KsTriangle;
+
+/// Kensler–Shirley test of one ray against one triangle.
+///
+/// Returns the hit when `tmin <= t <= tmax`, `u >= 0`, `v >= 0` and `u + v <= 1` (all inclusive:
+/// a ray through an edge or vertex hits, possibly both triangles sharing it, and may also miss
+/// both after rounding; use the watertight test where that matters). `ray.tmin`/`ray.tmax` are
+/// ignored in favour of the arguments. Degenerate triangles and NaN rays never hit.
+#[inline(always)]
+pub fn intersect(ray: &Ray, tri: &KsTriangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+    let d = ray.dir.to_array();
+    let n = tri.n.to_array();
+    let c = sub3(tri.p0.to_array(), ray.origin.to_array());
+    let r = 1.0 / dot3(n, d);
+    let t = dot3(n, c) * r;
+    if !(t >= tmin && t <= tmax) {
+        return None;
+    }
+    let w = cross3(c, d);
+    let u = dot3(w, tri.e1.to_array()) * r;
+    let v = dot3(w, tri.e0.to_array()) * r;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some(TriangleHit { t, u, v })
+}
+
+/// Kensler–Shirley test of `WIDTH` rays against one triangle, with per-lane `[tmin, tmax]`.
+///
+/// Lane `i` of the result is what [`intersect`] returns for ray `i`, bit for bit (the same
+/// operations in the same order, no FMA).
+#[inline(always)]
+pub fn intersect_lanes<L: Lanes>(
+    l: L,
+    rays: &LaneRays<L>,
+    tri: &KsTriangle,
+    tmin: L::F32,
+    tmax: L::F32,
+) -> LaneHits<L> {
+    let n = splat3(l, tri.n);
+    let c = sub3(splat3(l, tri.p0), rays.org);
+    let r = l.splat(1.0) / dot3(n, rays.dir);
+    let t = dot3(n, c) * r;
+    let w = cross3(c, rays.dir);
+    let u = dot3(w, splat3(l, tri.e1)) * r;
+    let v = dot3(w, splat3(l, tri.e0)) * r;
+    let zero = l.splat(0.0);
+    let mask = t.ge(tmin) & t.le(tmax) & u.ge(zero) & v.ge(zero) & (u + v).le(l.splat(1.0));
+    LaneHits { mask, t, u, v }
+}

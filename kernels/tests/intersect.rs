@@ -1,0 +1,391 @@
+//! Kensler–Shirley and watertight ray × triangle tests: against the `f64` oracle, barycentric
+//! reconstruction, degenerate triangles, non-finite rays, and the lane forms against the
+//! single-ray forms on every ISA.
+
+mod common;
+
+use common::{barycentric_point, gather, lanes_of, ray_through, same, well_shaped_triangle, Rng};
+use kdbeam_kernels::intersect::kensler_shirley;
+use kdbeam_kernels::intersect::oracle::OracleRay;
+use kdbeam_kernels::intersect::watertight::{WatertightLanes, WatertightRay};
+use kdbeam_kernels::intersect::{LaneHits, TriangleHit};
+use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::{Isa, KsTriangle, LaneMask, LaneTask, Lanes, Ray, Triangle, Vec3};
+
+/// A single-ray intersector under test.
+type Intersector = fn(&Ray, &Triangle, f32, f32) -> Option<TriangleHit>;
+
+fn kensler_shirley(ray: &Ray, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+    kensler_shirley::intersect(ray, &KsTriangle::from(tri), tmin, tmax)
+}
+
+fn watertight(ray: &Ray, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
+    WatertightRay::new(ray).intersect(tri, tmin, tmax)
+}
+
+const INTERSECTORS: [(&str, Intersector); 2] = [
+    ("kensler_shirley", kensler_shirley),
+    ("watertight", watertight),
+];
+
+/// Accuracy against the oracle on well-shaped triangles (no angle below ~10°), rays at least
+/// 0.1 from grazing, `t = 1` at the target.
+///
+/// Tolerances: inputs are `O(1)`, so each `f32` step rounds at `2^-24 ≈ 6e-8` of the inputs'
+/// scale; the tests chain ~20 steps and divide by `n·d` and by the triangle's area, each at most
+/// ~10× below that scale here, so errors stay around 1e-6 (measured worst: 3.4e-6 for
+/// Kensler–Shirley barycentrics). We allow 3e-5 on `t` (relative), on `u`, `v` (absolute), and on
+/// the distance between `ray.at(t)` and the barycentric point: ten times the measured worst,
+/// far below what a wrong formula gives (swapping `u` and `v` errs by O(0.1)).
+const TOLERANCE: f64 = 3e-5;
+
+/// Barycentric margin that rounding can never cross under `TOLERANCE`.
+const MARGIN: f64 = 0.01;
+
+#[test]
+fn hits_inside_the_margin_agree_with_the_oracle_and_reconstruct_the_point() {
+    for (name, intersect) in INTERSECTORS {
+        let mut rng = Rng::new(1);
+        let (mut worst_t, mut worst_uv, mut worst_point) = (0.0f64, 0.0f64, 0.0f64);
+        for _ in 0..50_000 {
+            let tri = well_shaped_triangle(&mut rng);
+            let (u, v) = loop {
+                let (u, v) = (rng.unit(), rng.unit());
+                if u >= MARGIN && v >= MARGIN && 1.0 - u - v >= MARGIN {
+                    break (u, v);
+                }
+            };
+            let ray = ray_through(&mut rng, &tri, barycentric_point(&tri, u, v));
+            let truth = OracleRay::new(&ray)
+                .intersect(&tri, 0.0, f64::INFINITY)
+                .expect("the oracle hits a ray aimed inside the margin");
+            let hit = intersect(&ray, &tri, 0.0, f32::INFINITY)
+                .unwrap_or_else(|| panic!("{name} missed {ray:?} {tri:?}"));
+            worst_t = worst_t.max(((hit.t as f64 - truth.t) / truth.t).abs());
+            worst_uv = worst_uv
+                .max((hit.u as f64 - truth.u).abs())
+                .max((hit.v as f64 - truth.v).abs());
+            let on_ray = ray.origin.as_dvec3() + ray.dir.as_dvec3() * hit.t as f64;
+            let (hu, hv) = (hit.u as f64, hit.v as f64);
+            let on_triangle = tri.v0.as_dvec3() * (1.0 - hu - hv)
+                + tri.v1.as_dvec3() * hu
+                + tri.v2.as_dvec3() * hv;
+            worst_point = worst_point.max(on_ray.distance(on_triangle));
+        }
+        println!("{name}: max rel t error {worst_t:.2e}, max |du|,|dv| {worst_uv:.2e}, max point gap {worst_point:.2e}");
+        assert!(worst_t <= TOLERANCE, "{name}: t error {worst_t}");
+        assert!(
+            worst_uv <= TOLERANCE,
+            "{name}: barycentric error {worst_uv}"
+        );
+        assert!(worst_point <= TOLERANCE, "{name}: point gap {worst_point}");
+    }
+}
+
+#[test]
+fn rays_outside_the_margin_or_the_interval_miss_like_the_oracle() {
+    for (name, intersect) in INTERSECTORS {
+        let mut rng = Rng::new(2);
+        for _ in 0..50_000 {
+            let tri = well_shaped_triangle(&mut rng);
+            // Outside one edge by at least the margin (any of the three).
+            let (mut u, mut v) = (rng.unit() * 1.5 - 0.25, rng.unit() * 1.5 - 0.25);
+            match rng.below(3) {
+                0 => u = -MARGIN - rng.unit(),
+                1 => v = -MARGIN - rng.unit(),
+                _ => u = 1.0 - v + MARGIN + rng.unit(),
+            }
+            let ray = ray_through(&mut rng, &tri, barycentric_point(&tri, u, v));
+            assert_eq!(
+                OracleRay::new(&ray).intersect(&tri, 0.0, f64::INFINITY),
+                None,
+                "oracle"
+            );
+            assert_eq!(intersect(&ray, &tri, 0.0, f32::INFINITY), None, "{name}");
+
+            // Inside, but the interval stops 0.1% short of the hit or starts 0.1% past it.
+            let ray = ray_through(&mut rng, &tri, barycentric_point(&tri, 0.3, 0.3));
+            assert_eq!(intersect(&ray, &tri, 0.0, 0.999), None, "{name}");
+            assert_eq!(intersect(&ray, &tri, 1.001, f32::INFINITY), None, "{name}");
+            let hit = intersect(&ray, &tri, 0.999, 1.001).expect("hit inside a narrow interval");
+            assert!((0.999..=1.001).contains(&hit.t), "{name}: {hit:?}");
+        }
+    }
+}
+
+#[test]
+fn the_interval_is_closed_at_both_ends() {
+    for (name, intersect) in INTERSECTORS {
+        let mut rng = Rng::new(3);
+        for _ in 0..10_000 {
+            let tri = well_shaped_triangle(&mut rng);
+            let ray = ray_through(&mut rng, &tri, barycentric_point(&tri, 0.2, 0.3));
+            let t = intersect(&ray, &tri, 0.0, f32::INFINITY).expect("hit").t;
+            assert_eq!(intersect(&ray, &tri, t, t).map(|h| h.t), Some(t), "{name}");
+            assert_eq!(
+                intersect(&ray, &tri, t, f32::INFINITY).map(|h| h.t),
+                Some(t)
+            );
+            assert_eq!(intersect(&ray, &tri, 0.0, t).map(|h| h.t), Some(t));
+        }
+    }
+}
+
+/// Degenerate forms of a triangle with vertices `a`, `b`: repeated vertices, a point, and
+/// non-finite vertices.
+fn degenerate_triangles(a: Vec3, b: Vec3) -> [Triangle; 7] {
+    [
+        Triangle::new(a, a, b),
+        Triangle::new(a, b, a),
+        Triangle::new(b, a, a),
+        Triangle::new(a, a, a),
+        Triangle::new(a, b, Vec3::new(f32::NAN, 0.0, 0.0)),
+        Triangle::new(a, Vec3::new(0.0, f32::INFINITY, 0.0), b),
+        Triangle::new(Vec3::NEG_INFINITY, a, b),
+    ]
+}
+
+#[test]
+fn degenerate_triangles_never_hit() {
+    let mut rng = Rng::new(4);
+    for _ in 0..20_000 {
+        let (a, b) = (rng.in_cube(1.0), rng.in_cube(1.0));
+        // Aim at the vertices, the segment between them, and anywhere.
+        let targets = [a, b, (a + b) * 0.5, a + (b - a) * rng.range(0.0, 1.0)];
+        for tri in degenerate_triangles(a, b) {
+            for target in targets {
+                let origin = target + rng.on_sphere() * rng.range(0.5, 3.0);
+                let ray = Ray::new(origin, target - origin);
+                for (name, intersect) in INTERSECTORS {
+                    assert_eq!(
+                        intersect(&ray, &tri, f32::NEG_INFINITY, f32::INFINITY),
+                        None,
+                        "{name} {tri:?} {ray:?}"
+                    );
+                }
+                assert_eq!(
+                    OracleRay::new(&ray).intersect(&tri, f64::NEG_INFINITY, f64::INFINITY),
+                    None
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn kensler_shirley_never_hits_exactly_collinear_triangles() {
+    // Small integer coordinates: every difference and product is exact, so `n = 0` exactly.
+    let mut rng = Rng::new(5);
+    let int = |rng: &mut Rng| {
+        Vec3::new(
+            rng.below(9) as f32,
+            rng.below(9) as f32,
+            rng.below(9) as f32,
+        ) - 4.0
+    };
+    for _ in 0..20_000 {
+        let (p, step) = (int(&mut rng), int(&mut rng));
+        let (k1, k2) = (rng.below(5) as f32 - 2.0, rng.below(5) as f32 - 2.0);
+        let tri = Triangle::new(p, p + step * k1, p + step * k2);
+        let target = p + step * rng.range(-2.0, 2.0);
+        let origin = target + rng.on_sphere() * rng.range(0.5, 3.0);
+        let ray = Ray::new(origin, target - origin);
+        assert_eq!(
+            kensler_shirley(&ray, &tri, f32::NEG_INFINITY, f32::INFINITY),
+            None,
+            "{tri:?} {ray:?}"
+        );
+    }
+}
+
+/// Rays with a NaN, an infinite or an all-zero component, aimed near the triangle.
+fn non_finite_rays(rng: &mut Rng, target: Vec3) -> Vec<Ray> {
+    let origin = target + rng.on_sphere() * 2.0;
+    let dir = target - origin;
+    let mut rays = vec![Ray::new(origin, Vec3::ZERO), Ray::new(origin, -Vec3::ZERO)];
+    for k in 0..3 {
+        for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            let (mut o, mut d) = (origin, dir);
+            o[k] = bad;
+            rays.push(Ray::new(o, dir));
+            d[k] = bad;
+            rays.push(Ray::new(origin, d));
+        }
+    }
+    rays
+}
+
+#[test]
+fn non_finite_rays_and_intervals_never_hit() {
+    for (name, intersect) in INTERSECTORS {
+        let mut rng = Rng::new(6);
+        for _ in 0..20_000 {
+            let tri = well_shaped_triangle(&mut rng);
+            let target = barycentric_point(&tri, 0.3, 0.3);
+            for ray in non_finite_rays(&mut rng, target) {
+                assert_eq!(
+                    intersect(&ray, &tri, f32::NEG_INFINITY, f32::INFINITY),
+                    None,
+                    "{name} {ray:?}"
+                );
+            }
+            let ray = ray_through(&mut rng, &tri, target);
+            assert_eq!(
+                intersect(&ray, &tri, f32::NAN, f32::INFINITY),
+                None,
+                "{name}"
+            );
+            assert_eq!(intersect(&ray, &tri, 0.0, f32::NAN), None, "{name}");
+        }
+    }
+}
+
+/// Rays and triangles on which every lane form must match the single-ray form: random, aimed at
+/// the inside, the edges and the vertices (exactly zero edge functions: the `f64` path),
+/// axis-aligned (signed zeros, per-lane permutations), degenerate and non-finite.
+fn lane_cases(rng: &mut Rng) -> (Vec<Triangle>, Vec<Ray>) {
+    let unit = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+    let mut tris = vec![unit, Triangle::new(Vec3::ZERO, Vec3::Y, Vec3::X)];
+    tris.extend(degenerate_triangles(Vec3::ZERO, Vec3::ONE));
+    tris.extend((0..40).map(|_| well_shaped_triangle(rng)));
+    let mut rays = Vec::new();
+    for tri in &tris[..] {
+        for _ in 0..24 {
+            let (u, v) = match rng.below(4) {
+                0 => (0.0, rng.unit()),
+                1 => (rng.unit(), 0.0),
+                2 => (0.0, 0.0),
+                _ => (rng.unit() * 1.4 - 0.2, rng.unit() * 1.4 - 0.2),
+            };
+            let target = barycentric_point(tri, u, v);
+            if target.is_finite() {
+                let origin = target + rng.on_sphere() * 2.0;
+                rays.push(Ray::new(origin, target - origin));
+                // Axis-aligned through the same point, both ways along each axis.
+                let axis = [Vec3::X, Vec3::Y, Vec3::Z][rng.below(3)]
+                    * if rng.chance(0.5) { 1.0 } else { -1.0 };
+                rays.push(Ray::new(target - axis, axis));
+            }
+        }
+    }
+    rays.extend(non_finite_rays(rng, Vec3::new(0.25, 0.25, 0.0)));
+    for ray in rays.iter_mut() {
+        (ray.tmin, ray.tmax) = match rng.below(4) {
+            0 => (0.0, f32::INFINITY),
+            1 => (rng.range(0.0, 1.5), rng.range(0.5, 3.0)),
+            2 => (f32::NEG_INFINITY, rng.range(0.0, 2.0)),
+            _ => (1.0, 1.0),
+        };
+    }
+    let mut shuffled = Vec::with_capacity(rays.len());
+    while !rays.is_empty() {
+        shuffled.push(rays.swap_remove(rng.below(rays.len())));
+    }
+    (tris, shuffled)
+}
+
+/// Lane forms of both tests against their single-ray forms, bit for bit; returns the failures
+/// and how many lanes were compared.
+struct LanesVsSingle {
+    tris: Vec<Triangle>,
+    rays: Vec<Ray>,
+}
+
+impl LaneTask for LanesVsSingle {
+    type Output = (Vec<String>, usize);
+
+    fn run<L: Lanes>(self, l: L) -> (Vec<String>, usize) {
+        let mut failures = Vec::new();
+        let mut compared = 0;
+        for group in self.rays.chunks_exact(L::WIDTH) {
+            let lanes = gather(l, group);
+            let tmin = l.load(&group.iter().map(|r| r.tmin).collect::<Vec<_>>());
+            let tmax = l.load(&group.iter().map(|r| r.tmax).collect::<Vec<_>>());
+            let prepared = WatertightLanes::new(l, &lanes);
+            for tri in &self.tris {
+                let results: [(&str, LaneHits<L>, Intersector); 2] = [
+                    (
+                        "kensler_shirley",
+                        kensler_shirley::intersect_lanes(
+                            l,
+                            &lanes,
+                            &KsTriangle::from(tri),
+                            tmin,
+                            tmax,
+                        ),
+                        kensler_shirley,
+                    ),
+                    (
+                        "watertight",
+                        prepared.intersect(l, tri, tmin, tmax),
+                        watertight,
+                    ),
+                ];
+                for (name, got, single) in results {
+                    let (t, u, v) = (lanes_of(l, got.t), lanes_of(l, got.u), lanes_of(l, got.v));
+                    for (i, ray) in group.iter().enumerate() {
+                        compared += 1;
+                        let want = single(ray, tri, ray.tmin, ray.tmax);
+                        let hit = got.mask.bits() >> i & 1 != 0;
+                        let agrees = match want {
+                            None => !hit,
+                            Some(w) => hit && same(t[i], w.t) && same(u[i], w.u) && same(v[i], w.v),
+                        };
+                        if !agrees {
+                            failures.push(format!(
+                                "{} {name} lane {i}: got {hit} ({}, {}, {}), want {want:?}; {ray:?} {tri:?}",
+                                L::ISA,
+                                t[i],
+                                u[i],
+                                v[i]
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+        (failures, compared)
+    }
+}
+
+#[test]
+fn lane_forms_equal_single_ray_forms_bit_for_bit_on_every_isa() {
+    let mut rng = Rng::new(8);
+    let (tris, rays) = lane_cases(&mut rng);
+    for isa in Isa::available() {
+        let task = LanesVsSingle {
+            tris: tris.clone(),
+            rays: rays.clone(),
+        };
+        let (failures, compared) = run_on(isa, task).expect("available ISA runs");
+        assert!(compared > 100_000, "{isa}: only {compared} lanes compared");
+        assert!(
+            failures.is_empty(),
+            "{isa}: {} failures, first {:#?}",
+            failures.len(),
+            &failures[..failures.len().min(5)]
+        );
+    }
+}
+
+#[test]
+fn rays_through_an_edge_line_take_the_f64_path_and_still_hit() {
+    // The ray runs down the z axis through (0.5, 0, 0), on the edge v0–v1 of the unit triangle:
+    // in the sheared frame that edge's function is exactly 0.
+    let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+    let neighbour = Triangle::new(Vec3::X, Vec3::ZERO, -Vec3::Y);
+    let ray = Ray::new(Vec3::new(0.5, 0.0, 1.0), -Vec3::Z);
+    let hit = watertight(&ray, &tri, 0.0, f32::INFINITY).expect("edge hit");
+    assert_eq!((hit.t, hit.u, hit.v), (1.0, 0.5, 0.0));
+    assert!(watertight(&ray, &neighbour, 0.0, f32::INFINITY).is_some());
+    // Shifted by the smallest step off the edge line, exactly one of the two is hit.
+    for y in [f32::from_bits(1), -f32::from_bits(1), 1e-30, -1e-30] {
+        let ray = Ray::new(Vec3::new(0.5, y, 1.0), -Vec3::Z);
+        let hits = [tri, neighbour].map(|t| watertight(&ray, &t, 0.0, f32::INFINITY).is_some());
+        assert_eq!(
+            hits.iter().filter(|&&h| h).count(),
+            1,
+            "y = {y:e}: {hits:?}"
+        );
+    }
+}

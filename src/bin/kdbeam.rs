@@ -1,2 +1,0 @@
-//! The kdbeam command-line tool.
-fn main() {}

@@ -1,0 +1,196 @@
+//! `kdbeam bench`: Mrays/s per scene, ray set, ISA and packet size.
+
+use std::time::Instant;
+
+use kdbeam::render::{self, Camera, RaySet};
+use kdbeam::trace::PacketCounters;
+use kdbeam::{Hit, Isa, PacketShape, Tracer};
+use rayon::prelude::*;
+
+use super::{build_tree, load_scene, thread_pool, TraceArgs};
+
+#[derive(clap::Args)]
+pub(crate) struct BenchArgs {
+    /// Scenes: paths, shared scene names or builtin:NAME (default builtin:default).
+    scenes: Vec<String>,
+    /// Ray set.
+    #[arg(long, value_enum, default_value = "primary")]
+    rays: RaySet,
+    /// Image size (primary) or ray count = W·H (random), WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
+    size: (u32, u32),
+    /// ISAs to measure, comma separated (default: every one this CPU runs).
+    #[arg(long, value_delimiter = ',')]
+    isa: Vec<Isa>,
+    /// Packet sizes to measure, comma separated; 1 is the single-ray scalar path (default:
+    /// 1, 4, 8, 16, 64).
+    #[arg(long, value_delimiter = ',')]
+    packet: Vec<usize>,
+    /// Worker threads (default 1).
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Timed repetitions per configuration (the median is reported).
+    #[arg(long, default_value_t = 5)]
+    reps: usize,
+    /// One JSON object per line instead of a table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    trace: TraceArgs,
+}
+
+#[derive(serde::Serialize)]
+struct Row {
+    scene: String,
+    rays: &'static str,
+    isa: String,
+    packet: usize,
+    intersector: &'static str,
+    culling: &'static str,
+    threads: usize,
+    mrays_per_s: f64,
+    tests_per_ray: f64,
+    speedup_vs_scalar: f64,
+}
+
+pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
+    let pool = thread_pool(Some(args.threads))?;
+    let isas: Vec<Isa> = if args.isa.is_empty() {
+        Isa::available().collect()
+    } else {
+        args.isa.clone()
+    };
+    for &isa in &isas {
+        kdbeam::trace::check_isa(isa)?;
+    }
+    let packets = if args.packet.is_empty() {
+        vec![1, 4, 8, 16, 64]
+    } else {
+        args.packet.clone()
+    };
+    let scenes = if args.scenes.is_empty() {
+        vec![None]
+    } else {
+        args.scenes.iter().map(|s| Some(s.as_str())).collect()
+    };
+    if !args.json {
+        println!(
+            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11} {:>11} {:>9}",
+            "scene", "rays", "isa", "packet", "threads", "Mrays/s", "tests/ray", "vs scalar"
+        );
+    }
+    for scene in scenes {
+        let (name, mesh) = load_scene(scene)?;
+        let tree = build_tree(&mesh, &args.trace)?;
+        let rays = render::ray_set(args.rays, &tree.bounds(), args.size.0, args.size.1);
+        let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
+        let mut scalar = None;
+        for &packet in &packets {
+            let configs: Vec<Isa> = if packet == 1 {
+                vec![Isa::Scalar]
+            } else {
+                isas.clone()
+            };
+            for &isa in &configs {
+                let base = Tracer::new(&tree)
+                    .with_intersector(args.trace.intersector)
+                    .with_isa(isa)?;
+                let (mrays, tests) =
+                    pool.install(|| measure(&args, base, packet, &rays, &camera))?;
+                if packet == 1 {
+                    scalar = Some(mrays);
+                }
+                let row = Row {
+                    scene: name.clone(),
+                    rays: args.rays.name(),
+                    isa: if packet == 1 {
+                        "scalar".into()
+                    } else {
+                        isa.to_string()
+                    },
+                    packet,
+                    intersector: args.trace.intersector.name(),
+                    culling: "none",
+                    threads: args.threads,
+                    mrays_per_s: mrays,
+                    tests_per_ray: tests,
+                    speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
+                };
+                print_row(&row, args.json);
+            }
+        }
+    }
+    Ok(())
+}
+
+fn print_row(r: &Row, json: bool) {
+    if json {
+        println!("{}", serde_json::to_string(r).expect("rows serialise"));
+    } else {
+        println!(
+            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11.2} {:>8.2}x",
+            r.scene,
+            r.rays,
+            r.isa,
+            r.packet,
+            r.threads,
+            r.mrays_per_s,
+            r.tests_per_ray,
+            r.speedup_vs_scalar
+        );
+    }
+}
+
+/// Median Mrays/s over `args.reps` timed runs after one warm-up, and tests per ray.
+fn measure(
+    args: &BenchArgs,
+    tracer: Tracer<'_>,
+    packet: usize,
+    rays: &[kdbeam::Ray],
+    camera: &Camera,
+) -> kdbeam::Result<(f64, f64)> {
+    let mut hits = vec![Hit::NONE; rays.len()];
+    let mut run = || -> kdbeam::Result<(f64, u64)> {
+        if packet == 1 {
+            let start = Instant::now();
+            let tests: u64 = rays
+                .par_iter()
+                .zip(hits.par_iter_mut())
+                .map(|(r, h)| {
+                    let (hit, c) = tracer.intersect_counted(r);
+                    *h = hit;
+                    c.tests
+                })
+                .sum();
+            return Ok((start.elapsed().as_secs_f64(), tests));
+        }
+        let shape = PacketShape::from_len(packet).ok_or(kdbeam::Error::InvalidParameter {
+            name: "packet",
+            message: format!("must be 1, 4, 8, 16 or 64, got {packet}"),
+        })?;
+        let t = tracer.with_packet(shape);
+        let (seconds, counters): (f64, PacketCounters) = match args.rays {
+            RaySet::Primary => {
+                let f = render::trace_primary(&t, camera, &|_| {});
+                (f.seconds, f.counters)
+            }
+            RaySet::Random => {
+                let start = Instant::now();
+                let c = t.intersect_stream(rays, &mut hits)?;
+                (start.elapsed().as_secs_f64(), c)
+            }
+        };
+        Ok((seconds, counters.tests))
+    };
+    let (_, tests) = run()?;
+    let mut times = Vec::with_capacity(args.reps);
+    for _ in 0..args.reps.max(1) {
+        times.push(run()?.0);
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    Ok((
+        rays.len() as f64 / median / 1e6,
+        tests as f64 / rays.len() as f64,
+    ))
+}

@@ -1,0 +1,231 @@
+//! The kdbeam command-line tool: render a scene, benchmark the tracer.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use kdbeam::render::{self, Camera};
+use kdbeam::scene::{self, procedural};
+use kdbeam::trace::{self, Intersector};
+use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
+
+#[derive(Parser)]
+#[command(
+    name = "kdbeam",
+    version,
+    about = "SIMD packet ray tracing through SAH kd-trees"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene with the standard camera to a PNG; print build and trace statistics.
+    Render(RenderArgs),
+    /// Measure Mrays/s per ISA and packet size.
+    Bench(bench::BenchArgs),
+}
+
+/// Options shared by every command that builds a tree and traces.
+#[derive(clap::Args, Clone)]
+struct TraceArgs {
+    /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
+    /// KDBEAM_ISA).
+    #[arg(long)]
+    isa: Option<Isa>,
+    /// Packet size in rays: 4, 8, 16 or 64.
+    #[arg(long, default_value_t = 64)]
+    packet: usize,
+    /// Ray–triangle test: kensler_shirley or watertight.
+    #[arg(long, default_value = "kensler_shirley")]
+    intersector: Intersector,
+    /// SAH cost ratio of a ray–triangle test to a traversal step.
+    #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
+    ci_over_ct: f32,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// A path to an .obj or .obj.gz, a shared scene (bunny, sponza, dragon, killeroo) or
+    /// builtin:NAME (default builtin:default).
+    scene: Option<String>,
+    /// Where to write the picture.
+    #[arg(long, default_value = "kdbeam.png")]
+    out: PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Also write a heat map of ray–triangle tests per pixel next to the picture.
+    #[arg(long)]
+    heatmap: bool,
+    #[command(flatten)]
+    trace: TraceArgs,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("{v:?} is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+/// Loads `name`: `builtin:NAME`, a shared scene's short name, or a path.
+fn load_scene(name: Option<&str>) -> kdbeam::Result<(String, Mesh)> {
+    let name = name.unwrap_or("builtin:default");
+    let mesh = if let Some(builtin) = name.strip_prefix("builtin:") {
+        procedural::builtin(builtin)?
+    } else if let Some(path) = scene::shared_scene(name) {
+        scene::load_obj(path)?
+    } else {
+        scene::load_obj(name)?
+    };
+    Ok((name.to_string(), mesh))
+}
+
+/// Runs `f`, showing a spinner with `message` if it takes longer than a second.
+fn with_spinner<T>(message: &str, f: impl FnOnce() -> T) -> T {
+    let bar = ProgressBar::hidden();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("static template"),
+    );
+    bar.set_message(message.to_string());
+    let shown = bar.clone();
+    let (tx, rx) = std::sync::mpsc::channel::<()>();
+    let watcher = std::thread::spawn(move || {
+        if rx.recv_timeout(Duration::from_secs(1)).is_err() {
+            shown.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            shown.enable_steady_tick(Duration::from_millis(100));
+        }
+    });
+    let out = f();
+    drop(tx);
+    let _ = watcher.join();
+    bar.finish_and_clear();
+    out
+}
+
+/// A progress bar over `len` steps, drawn only once a second has passed.
+fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
+    let bar = ProgressBar::with_draw_target(Some(len), indicatif::ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(message.to_string());
+    (bar, Instant::now())
+}
+
+fn build_tree(mesh: &Mesh, args: &TraceArgs) -> kdbeam::Result<KdTree> {
+    let params = BuildParams {
+        ci_over_ct: args.ci_over_ct,
+        ..BuildParams::default()
+    };
+    with_spinner("building kd-tree", || KdTree::build(mesh, &params))
+}
+
+fn tracer<'t>(tree: &'t KdTree, args: &TraceArgs) -> kdbeam::Result<Tracer<'t>> {
+    let packet = PacketShape::from_len(args.packet).ok_or(kdbeam::Error::InvalidParameter {
+        name: "packet",
+        message: format!("must be 4, 8, 16 or 64, got {}", args.packet),
+    })?;
+    let t = Tracer::new(tree)
+        .with_intersector(args.intersector)
+        .with_packet(packet);
+    match args.isa {
+        Some(isa) => t.with_isa(isa),
+        None => Ok(t),
+    }
+}
+
+fn thread_pool(threads: Option<usize>) -> kdbeam::Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(kdbeam::Error::InvalidParameter {
+                name: "threads",
+                message: "must be at least 1".into(),
+            });
+        }
+        b = b.num_threads(n);
+    }
+    b.build().map_err(|e| kdbeam::Error::InvalidParameter {
+        name: "threads",
+        message: e.to_string(),
+    })
+}
+
+fn render(args: RenderArgs) -> kdbeam::Result<()> {
+    trace::isa_from_env()?;
+    let pool = thread_pool(args.trace.threads)?;
+    pool.install(|| {
+        let (name, mesh) = with_spinner("loading scene", || load_scene(args.scene.as_deref()))?;
+        let tree = build_tree(&mesh, &args.trace)?;
+        let stats = tree.stats();
+        println!("scene      {name}: {} triangles", mesh.triangle_count());
+        println!("kd-tree    {stats}");
+        let tracer = tracer(&tree, &args.trace)?;
+        let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
+        let (bar, start) = delayed_bar(u64::from(camera.height), "tracing");
+        let frame = render::trace_primary(&tracer, &camera, &|rows| {
+            if start.elapsed() > Duration::from_secs(1) && bar.is_hidden() {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            }
+            bar.inc(rows);
+        });
+        bar.finish_and_clear();
+        let hit = frame.hits.iter().filter(|h| h.is_hit()).count();
+        println!(
+            "trace      {}x{} primary rays, {} isa, {} packets ({}), {} threads: {:.2} Mrays/s, {:.1}% hit",
+            camera.width,
+            camera.height,
+            tracer.isa(),
+            tracer.packet().len(),
+            tracer.intersector().name(),
+            rayon::current_num_threads(),
+            frame.mrays_per_s(),
+            100.0 * hit as f64 / frame.rays().max(1) as f64,
+        );
+        let c = &frame.counters;
+        println!(
+            "work       {:.2} leaves/ray, {:.2} tests/ray, {:.2} active rays per packet leaf visit",
+            c.ray_leaf_visits as f64 / frame.rays().max(1) as f64,
+            frame.tests_per_ray(),
+            c.ray_leaf_visits as f64 / c.leaf_visits.max(1) as f64,
+        );
+        let mut image = frame.shade(&mesh);
+        if args.heatmap {
+            image = image.beside(&render::heatmap(&tracer, &camera));
+        }
+        image.write_png(&args.out)?;
+        println!("wrote      {}", args.out.display());
+        Ok(())
+    })
+}
+
+mod bench;
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Render(args) => render(args),
+        Command::Bench(args) => bench::run(args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,306 @@
+//! Tracing rays through a kd-tree: single rays, packets and streams, on every ISA.
+//!
+//! [`Tracer`] is the entry point: it borrows a [`KdTree`] and holds the choice of intersector,
+//! ISA and culling.
+
+mod dispatch;
+mod packet;
+pub mod reference;
+mod single;
+mod stream;
+
+use kdbeam_kernels::intersect::watertight::WatertightRay;
+use kdbeam_kernels::Hit;
+use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
+
+pub use packet::PacketCounters;
+pub use single::RayCounters;
+use single::{KsTest, WatertightTest};
+
+use crate::kdtree::KdTree;
+use crate::{Error, Result};
+
+/// Which ray–triangle test runs in the leaves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Intersector {
+    /// Kensler & Shirley (RT06): the fastest, and the baseline of every culling figure. Rays
+    /// through an edge shared by two triangles may, rarely, miss both.
+    #[default]
+    KenslerShirley,
+    /// Woop, Benthin & Wald (JCGT 2013): no ray passes between triangles that share an edge.
+    Watertight,
+}
+
+impl Intersector {
+    /// Both, baseline first.
+    pub const ALL: [Intersector; 2] = [Intersector::KenslerShirley, Intersector::Watertight];
+
+    /// `kensler_shirley` or `watertight`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Intersector::KenslerShirley => "kensler_shirley",
+            Intersector::Watertight => "watertight",
+        }
+    }
+}
+
+impl std::str::FromStr for Intersector {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        match s.to_ascii_lowercase().as_str() {
+            "ks" | "kensler_shirley" | "kensler-shirley" => Ok(Intersector::KenslerShirley),
+            "wt" | "watertight" => Ok(Intersector::Watertight),
+            _ => Err(Error::InvalidParameter {
+                name: "intersector",
+                message: format!("expected kensler_shirley or watertight, got {s:?}"),
+            }),
+        }
+    }
+}
+
+/// The ISA `KDBEAM_ISA` forces, if it is set.
+///
+/// # Errors
+/// [`Error::InvalidParameter`] when the variable names no ISA, [`Error::IsaUnavailable`] when
+/// the CPU does not run it.
+pub fn isa_from_env() -> Result<Option<Isa>> {
+    match std::env::var("KDBEAM_ISA") {
+        Ok(name) if !name.trim().is_empty() => {
+            let isa: Isa = name.parse().map_err(|e| Error::InvalidParameter {
+                name: "KDBEAM_ISA",
+                message: format!("{e}, got {name:?}"),
+            })?;
+            check_isa(isa).map(Some)
+        }
+        _ => Ok(None),
+    }
+}
+
+/// `isa` if this CPU runs it.
+///
+/// # Errors
+/// [`Error::IsaUnavailable`] otherwise.
+pub fn check_isa(isa: Isa) -> Result<Isa> {
+    if isa.is_available() {
+        Ok(isa)
+    } else {
+        Err(Error::IsaUnavailable(isa))
+    }
+}
+
+/// Traces rays through a borrowed [`KdTree`].
+///
+/// ```
+/// use kdbeam::{BuildParams, KdTree, Mesh, Ray, Tracer, Vec3};
+/// let mesh = Mesh::from_indexed(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]], &[0, 1, 2])?;
+/// let tree = KdTree::build(&mesh, &BuildParams::default())?;
+/// let tracer = Tracer::new(&tree);
+/// let hit = tracer.intersect(&Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::Z));
+/// assert_eq!((hit.triangle, hit.t), (0, 1.0));
+/// # Ok::<(), kdbeam::Error>(())
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct Tracer<'t> {
+    tree: &'t KdTree,
+    intersector: Intersector,
+    isa: Isa,
+    packet: PacketShape,
+}
+
+impl<'t> Tracer<'t> {
+    /// A tracer with the default intersector on the widest ISA this CPU runs, or the one
+    /// `KDBEAM_ISA` names when that is valid and available.
+    pub fn new(tree: &'t KdTree) -> Self {
+        let isa = isa_from_env().ok().flatten().unwrap_or_else(Isa::detect);
+        Tracer {
+            tree,
+            intersector: Intersector::default(),
+            isa,
+            packet: PacketShape::P8x8,
+        }
+    }
+
+    /// The same tracer on `isa`.
+    ///
+    /// # Errors
+    /// [`Error::IsaUnavailable`] when this CPU does not run it.
+    pub fn with_isa(self, isa: Isa) -> Result<Self> {
+        Ok(Tracer {
+            isa: check_isa(isa)?,
+            ..self
+        })
+    }
+
+    /// The same tracer with another intersector.
+    pub fn with_intersector(self, intersector: Intersector) -> Self {
+        Tracer {
+            intersector,
+            ..self
+        }
+    }
+
+    /// The same tracer, cutting streams into packets of `packet`.
+    pub fn with_packet(self, packet: PacketShape) -> Self {
+        Tracer { packet, ..self }
+    }
+
+    /// The packet shape streams are cut into.
+    pub fn packet(&self) -> PacketShape {
+        self.packet
+    }
+
+    /// The tree.
+    pub fn tree(&self) -> &'t KdTree {
+        self.tree
+    }
+
+    /// The ISA packets run on.
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// The intersector.
+    pub fn intersector(&self) -> Intersector {
+        self.intersector
+    }
+
+    /// The closest hit of one ray, on the scalar path: [`Hit::NONE`] for a miss or a ray that
+    /// cannot be traced (non-finite or zero direction, NaN origin, `tmin > tmax`). Equal `t`
+    /// goes to the smaller triangle id.
+    pub fn intersect(&self, ray: &Ray) -> Hit {
+        self.intersect_counted(ray).0
+    }
+
+    /// [`Tracer::intersect`], with its traversal counters.
+    pub fn intersect_counted(&self, ray: &Ray) -> (Hit, RayCounters) {
+        match self.intersector {
+            Intersector::KenslerShirley => single::closest_hit(self.tree, ray, &KsTest),
+            Intersector::Watertight => {
+                single::closest_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray)))
+            }
+        }
+    }
+
+    /// Is anything hit in `[tmin, tmax]`? (Shadow rays.) `false` for a ray that cannot be traced.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        match self.intersector {
+            Intersector::KenslerShirley => single::any_hit(self.tree, ray, &KsTest).0,
+            Intersector::Watertight => {
+                single::any_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray))).0
+            }
+        }
+    }
+
+    /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.
+    ///
+    /// Rays of one packet may have any origins and directions: rays whose direction signs
+    /// differ are traced as separate sub-packets, one per octant. Each ray's hit equals
+    /// [`Tracer::intersect`] on the same ray (the differential tests check this on every ISA);
+    /// inactive rays and rays that cannot be traced get [`Hit::NONE`] and never change the
+    /// other rays' results.
+    pub fn intersect_packet(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+        hits: &mut HitPacket,
+    ) -> PacketCounters {
+        let mut counters = PacketCounters::default();
+        dispatch::run_on(
+            self.isa,
+            ClosestPacket {
+                tracer: self,
+                packet,
+                active,
+                hits,
+                counters: &mut counters,
+            },
+        );
+        counters
+    }
+
+    /// The rays of `packet` whose bit is set in `active` that hit anything in `[tmin, tmax]`,
+    /// as a bit mask.
+    pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
+        let mut counters = PacketCounters::default();
+        dispatch::run_on(
+            self.isa,
+            OccludedPacket {
+                tracer: self,
+                packet,
+                active,
+                counters: &mut counters,
+            },
+        )
+    }
+}
+
+/// [`Tracer::intersect_packet`] as a task generic over the lanes.
+struct ClosestPacket<'a, 't> {
+    tracer: &'a Tracer<'t>,
+    packet: &'a RayPacket,
+    active: u64,
+    hits: &'a mut HitPacket,
+    counters: &'a mut PacketCounters,
+}
+
+impl LaneTask for ClosestPacket<'_, '_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) {
+        let tree = self.tracer.tree;
+        match self.tracer.intersector {
+            Intersector::KenslerShirley => packet::closest::<L, packet::KsLanes>(
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.hits,
+                self.counters,
+            ),
+            Intersector::Watertight => packet::closest::<L, packet::WatertightLaneTest>(
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.hits,
+                self.counters,
+            ),
+        }
+    }
+}
+
+/// [`Tracer::occluded_packet`] as a task generic over the lanes.
+struct OccludedPacket<'a, 't> {
+    tracer: &'a Tracer<'t>,
+    packet: &'a RayPacket,
+    active: u64,
+    counters: &'a mut PacketCounters,
+}
+
+impl LaneTask for OccludedPacket<'_, '_> {
+    type Output = u64;
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> u64 {
+        let tree = self.tracer.tree;
+        match self.tracer.intersector {
+            Intersector::KenslerShirley => packet::occluded::<L, packet::KsLanes>(
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.counters,
+            ),
+            Intersector::Watertight => packet::occluded::<L, packet::WatertightLaneTest>(
+                l,
+                tree,
+                self.packet,
+                self.active,
+                self.counters,
+            ),
+        }
+    }
+}

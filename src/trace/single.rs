@@ -1,0 +1,228 @@
+//! Single-ray kd-tree traversal: the scalar reference every packet path is checked against.
+//!
+//! Front to back with a stack, as in pbrt's `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a
+//! leaf's triangles; traversal stops once the closest hit so far lies before the next cell.
+
+use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, TriangleHit};
+use kdbeam_kernels::{slab, Hit, LaneF32, Ray, Vec3};
+
+use crate::kdtree::{KdTree, LeafTriangles};
+
+/// Deepest stack a traversal needs: the builder caps depth at 64.
+pub(crate) const STACK_DEPTH: usize = 64;
+
+/// What a traversal does in each leaf it enters.
+pub(crate) trait LeafVisitor {
+    /// Tests `leaf`, entered over `[t_enter, t_exit]`. Returns the `t` of the closest hit so far
+    /// (`+inf` without one), or `None` to stop the traversal (an any-hit query that found one).
+    fn visit(&mut self, leaf: LeafTriangles<'_>, t_enter: f32, t_exit: f32) -> Option<f32>;
+}
+
+/// Can this ray be traced? Finite origin and direction, a non-zero direction and
+/// `tmin <= tmax` (`tmax` may be `+inf`). Every other ray reports a miss on every path.
+#[inline(always)]
+pub(crate) fn is_traceable(ray: &Ray) -> bool {
+    ray.origin.is_finite()
+        && ray.dir.is_finite()
+        && ray.dir != Vec3::ZERO
+        && ray.tmin <= ray.tmax
+        && !ray.tmax.is_nan()
+}
+
+/// Walks the leaves `ray` passes through, nearest first, until `visitor` has its answer.
+///
+/// A cell is entered over the closed interval `[t_enter, t_exit]` (clipped to
+/// `[ray.tmin, ray.tmax]`) and skipped once the closest hit so far is strictly before `t_enter`:
+/// a triangle hit at exactly that `t` in a later cell may still win the tie on its smaller id.
+///
+/// The near child is chosen by the sign bit of the direction, and a child is entered when its
+/// part of the interval is non-empty; this is the packet traversal's rule, lane for lane, so
+/// both visit the same leaves. A zero direction component gives `t_split = ±inf`, which empties
+/// the side the ray is not on; an origin on the split plane gives `0 · inf = NaN`, and the
+/// operand order of `min`/`max` (NaN yields the second operand) then keeps the whole interval
+/// on both sides: the ray lies in the plane and may hit triangles of either child.
+pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V) {
+    if !is_traceable(ray) {
+        return;
+    }
+    let inv = ray.dir.recip();
+    let Some((mut t_enter, mut t_exit)) =
+        slab::ray_box(ray.origin, inv, ray.tmin, ray.tmax, &tree.bounds())
+    else {
+        return;
+    };
+    let nodes = tree.nodes();
+    let mut stack = [(0u32, 0f32, 0f32); STACK_DEPTH];
+    let mut top = 0;
+    let mut node_index = 0u32;
+    let mut best_t = f32::INFINITY;
+    loop {
+        if t_enter <= best_t {
+            let node = nodes[node_index as usize];
+            if !node.is_leaf() {
+                let axis = node.axis();
+                let t_split = (node.split() - ray.origin[axis]) * inv[axis];
+                let (near, far) = if ray.dir[axis].is_sign_negative() {
+                    (node.above_child(), node_index + 1)
+                } else {
+                    (node_index + 1, node.above_child())
+                };
+                let near_exit = LaneF32::min(t_split, t_exit);
+                let far_enter = LaneF32::max(t_split, t_enter);
+                match (t_enter <= near_exit, far_enter <= t_exit) {
+                    (true, true) => {
+                        stack[top] = (far, far_enter, t_exit);
+                        top += 1;
+                        (node_index, t_exit) = (near, near_exit);
+                        continue;
+                    }
+                    (true, false) => {
+                        (node_index, t_exit) = (near, near_exit);
+                        continue;
+                    }
+                    (false, true) => {
+                        (node_index, t_enter) = (far, far_enter);
+                        continue;
+                    }
+                    (false, false) => {}
+                }
+            } else {
+                let leaf = &tree.leaves()[node.leaf_record() as usize];
+                if leaf.count > 0 {
+                    match visitor.visit(tree.leaf_triangles(leaf), t_enter, t_exit) {
+                        Some(t) => best_t = t,
+                        None => return,
+                    }
+                }
+            }
+        }
+        if top == 0 {
+            return;
+        }
+        top -= 1;
+        (node_index, t_enter, t_exit) = stack[top];
+    }
+}
+
+/// Counters of one traversal, summed by callers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounters {
+    /// Non-empty leaves entered.
+    pub leaves: u64,
+    /// Ray–triangle tests performed.
+    pub tests: u64,
+}
+
+/// One scalar ray–triangle test, as the traversal sees it.
+pub(crate) trait ScalarTest {
+    /// The hit of `ray` on triangle `i` of `leaf` in `[ray.tmin, tmax]`, if any.
+    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32)
+        -> Option<TriangleHit>;
+}
+
+/// The Kensler–Shirley test on the leaf's precomputed form.
+pub(crate) struct KsTest;
+
+impl ScalarTest for KsTest {
+    #[inline(always)]
+    fn test(
+        &self,
+        ray: &Ray,
+        leaf: &LeafTriangles<'_>,
+        i: usize,
+        tmax: f32,
+    ) -> Option<TriangleHit> {
+        kensler_shirley::intersect(ray, &leaf.ks[i], ray.tmin, tmax)
+    }
+}
+
+/// The watertight test, its per-ray shear computed once.
+pub(crate) struct WatertightTest(pub WatertightRay);
+
+impl ScalarTest for WatertightTest {
+    #[inline(always)]
+    fn test(
+        &self,
+        ray: &Ray,
+        leaf: &LeafTriangles<'_>,
+        i: usize,
+        tmax: f32,
+    ) -> Option<TriangleHit> {
+        self.0.intersect(&leaf.triangles[i], ray.tmin, tmax)
+    }
+}
+
+/// The closest hit of `ray` (the tie rule of [`Hit::is_beaten_by`]) and the work it took.
+pub(crate) fn closest_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (Hit, RayCounters) {
+    struct Closest<'a, T> {
+        ray: &'a Ray,
+        test: &'a T,
+        hit: Hit,
+        counters: RayCounters,
+    }
+    impl<T: ScalarTest> LeafVisitor for Closest<'_, T> {
+        #[inline(always)]
+        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
+            self.counters.leaves += 1;
+            self.counters.tests += leaf.ids.len() as u64;
+            for (i, &id) in leaf.ids.iter().enumerate() {
+                let tmax = if self.hit.is_hit() {
+                    self.hit.t
+                } else {
+                    self.ray.tmax
+                };
+                if let Some(h) = self.test.test(self.ray, &leaf, i, tmax) {
+                    if self.hit.is_beaten_by(h.t, id) {
+                        self.hit = Hit {
+                            t: h.t,
+                            u: h.u,
+                            v: h.v,
+                            triangle: id,
+                        };
+                    }
+                }
+            }
+            Some(self.hit.t)
+        }
+    }
+    let mut v = Closest {
+        ray,
+        test,
+        hit: Hit::NONE,
+        counters: RayCounters::default(),
+    };
+    traverse(tree, ray, &mut v);
+    (v.hit, v.counters)
+}
+
+/// Whether anything is hit in `[ray.tmin, ray.tmax]`, stopping at the first hit.
+pub(crate) fn any_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (bool, RayCounters) {
+    struct Any<'a, T> {
+        ray: &'a Ray,
+        test: &'a T,
+        found: bool,
+        counters: RayCounters,
+    }
+    impl<T: ScalarTest> LeafVisitor for Any<'_, T> {
+        #[inline(always)]
+        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
+            self.counters.leaves += 1;
+            for i in 0..leaf.ids.len() {
+                self.counters.tests += 1;
+                if self.test.test(self.ray, &leaf, i, self.ray.tmax).is_some() {
+                    self.found = true;
+                    return None;
+                }
+            }
+            Some(f32::INFINITY)
+        }
+    }
+    let mut v = Any {
+        ray,
+        test,
+        found: false,
+        counters: RayCounters::default(),
+    };
+    traverse(tree, ray, &mut v);
+    (v.found, v.counters)
+}

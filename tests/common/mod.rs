@@ -1,0 +1,101 @@
+//! Scenes and ray sets shared by the integration tests.
+#![allow(dead_code)]
+
+use kdbeam::render::{random_rays, Camera};
+use kdbeam::scene::{self, procedural, rng::Rng};
+use kdbeam::{Mesh, Ray, Vec3};
+
+/// Small procedural scenes (every generator) and, when present, the shared real meshes.
+/// Prints a clear line when the shared scenes are skipped.
+pub fn scenes(real: bool) -> Vec<(String, Mesh)> {
+    let mut out: Vec<(String, Mesh)> = [
+        "icosphere",
+        "grid",
+        "soup:3000",
+        "hair:2000",
+        "terrain:40",
+        "default",
+    ]
+    .iter()
+    .map(|n| {
+        (
+            format!("builtin:{n}"),
+            procedural::builtin(n).expect("built-in scene"),
+        )
+    })
+    .collect();
+    if real {
+        out.extend(real_scenes());
+    }
+    out
+}
+
+/// The shared real meshes, or none (with a message saying why).
+pub fn real_scenes() -> Vec<(String, Mesh)> {
+    let mut out = Vec::new();
+    for name in ["killeroo", "bunny", "sponza", "dragon"] {
+        match scene::shared_scene(name) {
+            Some(path) => out.push((name.to_string(), scene::load_obj(&path).expect("shared scene loads"))),
+            None => eprintln!(
+                "skipped: shared scene {name} not found (set KDBEAM_SCENES to the folder of ../shared/scenes)"
+            ),
+        }
+    }
+    out
+}
+
+/// Rays that stress a traversal: mixed direction signs, zero direction components, origins on
+/// triangles (on surfaces and on split planes), axis-parallel rays through vertices, NaN,
+/// infinite and zero-length rays, and rays with tmin > tmax.
+pub fn adversarial_rays(mesh: &Mesh, count: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    let b = mesh.bounds();
+    let mut rays = random_rays(&b, count / 2, seed);
+    let n = mesh.triangle_count().max(1);
+    while rays.len() < count {
+        let kind = rng.below(8);
+        let tri = mesh.triangle(rng.below(n as u32) as usize);
+        let on_surface = tri.v0 * 0.25 + tri.v1 * 0.25 + tri.v2 * 0.5;
+        let mut dir = rng.unit_vector();
+        let origin = match kind {
+            0 => on_surface,
+            1 => tri.v0,
+            2 => {
+                // Axis-parallel, through a vertex, from outside the box.
+                let axis = rng.below(3) as usize;
+                dir = Vec3::ZERO;
+                dir[axis] = 1.0;
+                let mut o = tri.v1;
+                o[axis] = b.min[axis] - 1.0;
+                o
+            }
+            3 => {
+                dir[rng.below(3) as usize] = 0.0;
+                dir[rng.below(3) as usize] = -0.0;
+                on_surface - dir
+            }
+            4 => Vec3::new(f32::NAN, 0.0, 0.0),
+            5 => {
+                dir = Vec3::ZERO;
+                on_surface
+            }
+            6 => {
+                dir = Vec3::new(f32::INFINITY, 1.0, 0.0);
+                on_surface
+            }
+            _ => on_surface - dir,
+        };
+        let mut r = Ray::new(origin, dir);
+        if kind == 7 && rng.below(4) == 0 {
+            r.tmin = 1.0;
+            r.tmax = 0.5;
+        }
+        rays.push(r);
+    }
+    rays
+}
+
+/// `width × height` primary rays of the standard camera.
+pub fn primary_rays(mesh: &Mesh, width: u32, height: u32) -> Vec<Ray> {
+    Camera::standard(&mesh.bounds(), width, height).rays()
+}
