@@ -408,7 +408,7 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
         refs,
         leaves.iter().map(|l| l.depth).max().unwrap_or(0),
         tree.nodes().len() * 8
-            + tree.leaves().len() * size_of::<LeafRecord>()
+            + std::mem::size_of_val(tree.leaves())
             + refs * (size_of::<Triangle>() + size_of::<KsTriangle>() + 4),
     );
     let got = (

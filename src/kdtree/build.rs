@@ -54,13 +54,14 @@ struct Context<'a> {
     parallel: bool,
 }
 
-/// Where a triangle goes at a split.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Side {
-    Below,
-    Above,
-    Both,
-}
+/// Where a triangle goes at a split, as bits so that classification can OR them in.
+type Side = u8;
+/// Straddles the plane: clipped into both children.
+const BOTH: Side = 0;
+/// Below (or in) the plane only.
+const BELOW: Side = 1;
+/// Above (or in) the plane only.
+const ABOVE: Side = 2;
 
 /// Per-thread buffers, reused by every node the thread splits.
 #[derive(Default)]
@@ -292,21 +293,19 @@ fn split_node(
     let axis = split.axis;
     let plane = split.pos_key;
 
-    // Classify: a triangle with no deciding event straddles the plane.
+    // Classify: a triangle with no deciding event straddles the plane. Of a triangle's start
+    // and end events at most one decides, so OR-ing the verdicts in needs no branch.
     scratch.sides.clear();
-    scratch.sides.resize(n, Side::Both);
+    scratch.sides.resize(n, BOTH);
+    let planar_below = split.planar_below;
     for &e in &node.events[axis] {
-        let at = pos_key(e);
-        let side = match kind(e) {
-            END if at <= plane => Side::Below,
-            START if at >= plane => Side::Above,
-            PLANAR if at < plane => Side::Below,
-            PLANAR if at > plane => Side::Above,
-            PLANAR if split.planar_below => Side::Below,
-            PLANAR => Side::Above,
-            _ => continue,
-        };
-        scratch.sides[local(e) as usize] = side;
+        let (at, k) = (pos_key(e), kind(e));
+        let planar = k == PLANAR;
+        let below =
+            (k == END && at <= plane) | (planar & ((at < plane) | (at == plane && planar_below)));
+        let above = (k == START && at >= plane)
+            | (planar & ((at > plane) | (at == plane && !planar_below)));
+        scratch.sides[local(e) as usize] |= Side::from(below) | (Side::from(above) << 1);
     }
 
     let position = unkey(plane);
@@ -323,34 +322,25 @@ fn split_node(
     scratch.above_index.resize(n, u32::MAX);
     for (i, &id) in node.ids.iter().enumerate() {
         let side = scratch.sides[i];
-        if side != Side::Above {
-            let clipped = match side {
-                Side::Both => clipped_bounds(&context.triangles[id as usize], &below_cell),
-                _ => None,
-            };
-            if side == Side::Below || clipped.is_some() {
-                let index = below_ids.len() as u32;
-                scratch.below_index[i] = index;
-                below_ids.push(id);
-                if let Some(b) = clipped {
-                    push_box_events(&mut scratch.new_below, &b, index);
-                }
-            }
-        }
-        if side != Side::Below {
-            let clipped = match side {
-                Side::Both => clipped_bounds(&context.triangles[id as usize], &above_cell),
-                _ => None,
-            };
-            if side == Side::Above || clipped.is_some() {
-                let index = above_ids.len() as u32;
-                scratch.above_index[i] = index;
-                above_ids.push(id);
-                if let Some(b) = clipped {
-                    push_box_events(&mut scratch.new_above, &b, index);
-                }
-            }
-        }
+        let tri = &context.triangles[id as usize];
+        scratch.below_index[i] = admit(
+            tri,
+            id,
+            side,
+            BELOW,
+            &below_cell,
+            &mut below_ids,
+            &mut scratch.new_below,
+        );
+        scratch.above_index[i] = admit(
+            tri,
+            id,
+            side,
+            ABOVE,
+            &above_cell,
+            &mut above_ids,
+            &mut scratch.new_above,
+        );
     }
 
     // Distribute the one-sided triangles' events in order, then merge in the clipped ones.
@@ -363,9 +353,9 @@ fn split_node(
         for &e in &node.events[a] {
             let i = local(e) as usize;
             match scratch.sides[i] {
-                Side::Below => b_list.push(relocated(e, scratch.below_index[i])),
-                Side::Above => a_list.push(relocated(e, scratch.above_index[i])),
-                Side::Both => {}
+                BELOW => b_list.push(relocated(e, scratch.below_index[i])),
+                ABOVE => a_list.push(relocated(e, scratch.above_index[i])),
+                _ => {}
             }
         }
         merge_into(&mut b_list, &mut scratch.new_below[a]);
@@ -388,7 +378,35 @@ fn split_node(
     )
 }
 
-#[cfg(test)]
+/// Admits triangle `id` of side `side` to the child that keeps the `only` side and lies in
+/// `cell`: one-sided triangles as they are, straddling ones if their clipped part is not empty
+/// (its events go to `new_events`). Returns its index in the child, `u32::MAX` if left out.
+fn admit(
+    tri: &Triangle,
+    id: u32,
+    side: Side,
+    only: Side,
+    cell: &Aabb,
+    ids: &mut Vec<u32>,
+    new_events: &mut [Vec<Event>; 3],
+) -> u32 {
+    let clipped = match side {
+        BOTH => match clipped_bounds(tri, cell) {
+            Some(b) => Some(b),
+            None => return u32::MAX,
+        },
+        s if s == only => None,
+        _ => return u32::MAX,
+    };
+    let index = ids.len() as u32;
+    ids.push(id);
+    if let Some(b) = clipped {
+        push_box_events(new_events, &b, index);
+    }
+    index
+}
+
+#[cfg(all(test, feature = "parallel"))]
 mod tests {
     use super::*;
 
@@ -420,7 +438,6 @@ mod tests {
             && a.ks_triangles == b.ks_triangles
     }
 
-    #[cfg(feature = "parallel")]
     #[test]
     fn one_thread_and_many_threads_build_the_same_tree() {
         // 20k triangles: several nodes above the parallel threshold.

@@ -4,8 +4,16 @@
 //! The clip runs in f64 against the cell grown by a tiny relative margin, and the result is
 //! rounded outward to f32 and then clamped to the cell (clamping is exact). The f32 box therefore
 //! contains the exact part of the triangle inside the cell and lies inside the cell: it may be a
-//! little loose (by about an f32 ulp), never too tight. It is also clamped to the triangle's own
-//! vertex box (exact), so a triangle flat on an axis stays exactly flat there.
+//! little loose, never too tight. It is also clamped to the triangle's own vertex box (exact), so
+//! a triangle flat on an axis stays exactly flat there.
+//!
+//! How loose: the grown cell takes in the part of the triangle within the margin of a face, and
+//! along an edge that meets the face at a grazing angle (slope `s` = run along another axis over
+//! rise across the face) that part reaches `margin · s` further. A slab of the margin's width is
+//! what conservativeness costs: the crossings are only known to f64 rounding, and that rounding
+//! is amplified by the same slope. Keeping the margin at f64 scale (2⁻⁴⁶ of the magnitude)
+//! keeps `margin · s` below one f32 ulp of the magnitude for slopes up to 2²³ (a 2⁻⁴⁰ margin once
+//! loosened a Sponza leaf by 3·10⁻⁵ along a wall edge of slope 2·10⁶).
 
 use kdbeam_kernels::{Aabb, DVec3, Triangle};
 
@@ -14,9 +22,11 @@ use kdbeam_kernels::{Aabb, DVec3, Triangle};
 const MAX_POLYGON: usize = 12;
 
 /// Margin, relative to the largest coordinate involved, by which the cell is grown before
-/// clipping: far above the f64 rounding of six clips (a few ulps, 2^-52 each), far below an f32
-/// ulp (2^-23), so that rounding in the clip can only add, never lose, a sliver.
-const MARGIN: f64 = 1.0 / (1u64 << 40) as f64;
+/// clipping: well above the f64 rounding of six clips (each crossing is a convex combination
+/// rounded a few times, 2^-53 each, so at most ~20 · 2^-53 in all), so that rounding in the clip
+/// can only add, never lose, a sliver; and as small as that allows, since grazing edges amplify
+/// it (module docs).
+const MARGIN: f64 = 1.0 / (1u64 << 46) as f64;
 
 /// The box of `tri ∩ cell`, conservative in f32 and inside `cell`; `None` when they do not meet.
 ///
@@ -173,6 +183,33 @@ mod tests {
         );
         let b = clipped_bounds(&tri, &cell([1.0, -1.0, -1.0], [2.0, 1.0, 1.0])).unwrap();
         assert_eq!((b.min.x, b.max.x), (1.0, 1.0));
+    }
+
+    #[test]
+    fn a_grazing_edge_is_clipped_tightly() {
+        // A Sponza wall triangle in x = -16.20356 whose edge v1 → v0 rises 1e-6 in y over 2.27
+        // in z (slope 2·10⁶), against a cell 3.2e-7 thick in y: the part ends where that edge
+        // leaves the cell. Conservative (>=), and loose by less than one f32 ulp of the largest
+        // coordinate (16.2: 1.9e-6), as the module docs promise for slopes below 2^23; a 2^-40
+        // margin gave 3.3e-5.
+        let tri = Triangle::new(
+            Vec3::new(-16.20356, 0.093313, 2.266891),
+            Vec3::new(-16.20356, 0.093312, 0.00149),
+            Vec3::new(-16.20356, 2.693312, 2.26689),
+        );
+        let c = cell(
+            [-16.20356, 0.093312, 0.0014902728],
+            [-16.202759, 0.093312316, 5.0],
+        );
+        let b = clipped_bounds(&tri, &c).unwrap();
+        let [v0, v1] = [tri.v0, tri.v1].map(DVec3::from);
+        let t = (f64::from(c.max.y) - v1.y) / (v0.y - v1.y);
+        let exact = v1.z + (v0.z - v1.z) * t;
+        let max_z = f64::from(b.max.z);
+        assert!(
+            max_z >= exact && max_z - exact < 1.9e-6,
+            "{max_z} vs {exact}"
+        );
     }
 
     #[test]

@@ -89,6 +89,7 @@ impl Layout {
     }
 
     /// Appends subtree `other`, shifting its node, record and triangle indices.
+    #[cfg(feature = "parallel")]
     pub fn append(&mut self, other: Layout) -> Result<()> {
         let node_offset = u32::try_from(self.nodes.len()).map_err(|_| too_big("nodes"))?;
         let record_offset = u32::try_from(self.records.len()).map_err(|_| too_big("leaves"))?;

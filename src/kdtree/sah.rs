@@ -3,7 +3,7 @@
 
 use kdbeam_kernels::Aabb;
 
-use super::events::{kind, pos_key, unkey, Event};
+use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
 use super::BuildParams;
 
 /// The SAH costs in units of one traversal step.
@@ -43,28 +43,18 @@ impl CostModel {
         self.ci_over_ct * n as f32
     }
 
-    /// Wald & Havran eq. (2) with the empty bonus: `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where
-    /// `P` are the children's surface areas over the node's and λ = `1 − empty_bonus` when one
-    /// side holds no triangle (the sweep only offers planes strictly inside the cell, so an
-    /// empty side is never a flat, zero-volume cell), else 1.
-    #[inline(always)]
-    fn split_cost(&self, p_below: f32, p_above: f32, n_below: u32, n_above: u32) -> f32 {
-        let lambda = if n_below == 0 || n_above == 0 {
-            self.empty_factor
-        } else {
-            1.0
-        };
-        1.0 + self.ci_over_ct * lambda * (p_below * n_below as f32 + p_above * n_above as f32)
-    }
-
     /// The cheapest plane of a node of `n` triangles in `cell`, from its sorted per-axis event
     /// lists; `None` when no plane lies strictly inside the cell (a cell flat on every axis but
     /// at most one, or extents overflowing f32).
     ///
-    /// The sweep (Algorithm 4): at each distinct position p, with p⁻, p|, p⁺ the numbers of
-    /// end, planar and start events there, first `N_above −= p⁻ + p|`, evaluate the plane with
-    /// the planar triangles on either side, then `N_below += p⁺ + p|`. Ties keep the first
-    /// plane found (axes in order, positions ascending), and the below side for planar ones.
+    /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
+    /// `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where `P` are the children's surface areas over
+    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Only planes
+    /// strictly inside the cell are offered, so an empty side is never a flat, zero-volume cell
+    /// (which would earn the bonus for nothing, and could repeat forever).
+    ///
+    /// Ties keep the first plane found (axes in order, positions ascending), and the below side
+    /// for the triangles lying in the plane.
     pub fn best_split(&self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) -> Option<Split> {
         // Areas are computed from extents divided by the largest one, so that huge
         // coordinates cannot overflow the products; the ratios P are unchanged.
@@ -74,54 +64,110 @@ impl CostModel {
             return None;
         }
         let unit = extent / scale;
-        let inv_scale = 1.0 / scale;
-        let n = n as u32;
         let mut best: Option<Split> = None;
-        let mut best_cost = f32::INFINITY;
         for (axis, list) in events.iter().enumerate() {
             if unit[axis] <= 0.0 {
                 continue;
             }
-            // SA(child) / SA(cell) = (ab + (a + b)·w_child) / (ab + (a + b)·w).
             let (a, b) = (unit[(axis + 1) % 3], unit[(axis + 2) % 3]);
-            let (ab, a_plus_b) = (a * b, a + b);
-            let inv_area = 1.0 / (ab + a_plus_b * unit[axis]);
-            let (lo, hi) = (cell.min[axis], cell.max[axis]);
-            let (mut n_below, mut n_above) = (0u32, n);
-            let mut i = 0;
-            while i < list.len() {
-                let here = pos_key(list[i]);
-                let mut counts = [0u32; 3];
-                while i < list.len() && pos_key(list[i]) == here {
-                    counts[kind(list[i]) as usize] += 1;
-                    i += 1;
+            let geometry = AxisGeometry {
+                ab: a * b,
+                a_plus_b: a + b,
+                inv_area: 1.0 / (a * b + (a + b) * unit[axis]),
+                inv_scale: 1.0 / scale,
+                lo: cell.min[axis],
+                hi: cell.max[axis],
+            };
+            if let Some(found) = self.sweep(list, n as u32, &geometry, axis) {
+                if best.is_none_or(|b| found.cost < b.cost) {
+                    best = Some(found);
                 }
-                let [ends, planars, starts] = counts;
-                n_above -= ends + planars;
-                let p = unkey(here);
-                if p > lo && p < hi {
-                    let p_below = (ab + a_plus_b * ((p - lo) * inv_scale)) * inv_area;
-                    let p_above = (ab + a_plus_b * ((hi - p) * inv_scale)) * inv_area;
-                    let below = self.split_cost(p_below, p_above, n_below + planars, n_above);
-                    let above = self.split_cost(p_below, p_above, n_below, n_above + planars);
-                    let (cost, planar_below) = if below <= above {
-                        (below, true)
-                    } else {
-                        (above, false)
-                    };
-                    if cost < best_cost {
-                        best_cost = cost;
-                        best = Some(Split {
-                            axis,
-                            pos_key: here,
-                            planar_below,
-                            cost,
-                        });
-                    }
-                }
-                n_below += starts + planars;
             }
         }
         best
     }
+
+    /// One sweep over an axis's sorted events (Algorithm 4). At each distinct position p,
+    /// with p⁻, p|, p⁺ the numbers of end, planar and start events there: `N_above −= p⁻ + p|`,
+    /// evaluate the plane with the planar triangles on either side, then `N_below += p⁺ + p|`.
+    /// Written as one pass with the plane evaluated where the position changes, and the counts
+    /// updated without branches on the event kind.
+    #[inline]
+    fn sweep(&self, list: &[Event], n: u32, g: &AxisGeometry, axis: usize) -> Option<Split> {
+        let (lo_key, hi_key) = (key(g.lo), key(g.hi));
+        // P_below = base + slope·(p − lo), P_above = base + slope·(hi − p). Differences from
+        // the cell's faces keep precision far from the origin.
+        let base = g.ab * g.inv_area;
+        let slope = g.a_plus_b * g.inv_scale * g.inv_area;
+        let empty_factor = self.empty_factor;
+        // λ · (P_b·N_b + P_a·N_a): the part of the cost that differs between planes. Counts
+        // are converted to f32 (exact below 2^24; beyond, rounding only blurs near-ties).
+        let weighted = |p_below: f32, p_above: f32, nb: f32, na: f32| {
+            let lambda = if nb == 0.0 || na == 0.0 {
+                empty_factor
+            } else {
+                1.0
+            };
+            lambda * (p_below * nb + p_above * na)
+        };
+        let (mut n_below, mut n_above) = (0u32, n);
+        let (mut planars, mut joining_below) = (0u32, 0u32);
+        let mut best_weighted = f32::INFINITY;
+        let mut best = (0u32, true);
+        for (i, &e) in list.iter().enumerate() {
+            let k = kind(e);
+            n_above -= u32::from(k != START);
+            planars += u32::from(k == PLANAR);
+            joining_below += u32::from(k != END);
+            let here = pos_key(e);
+            let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
+            if next == here {
+                continue;
+            }
+            // Keys order like positions, so this is lo < p < hi.
+            if here > lo_key && here < hi_key {
+                let p = unkey(here);
+                let p_below = base + slope * (p - g.lo);
+                let p_above = base + slope * (g.hi - p);
+                let (nb, na) = (n_below as f32, n_above as f32);
+                let (w, planar_below) = if planars == 0 {
+                    (weighted(p_below, p_above, nb, na), true)
+                } else {
+                    let np = planars as f32;
+                    let below = weighted(p_below, p_above, nb + np, na);
+                    let above = weighted(p_below, p_above, nb, na + np);
+                    if below <= above {
+                        (below, true)
+                    } else {
+                        (above, false)
+                    }
+                };
+                if w < best_weighted {
+                    best_weighted = w;
+                    best = (here, planar_below);
+                }
+            }
+            n_below += joining_below;
+            joining_below = 0;
+            planars = 0;
+        }
+        (best_weighted < f32::INFINITY).then_some(Split {
+            axis,
+            pos_key: best.0,
+            planar_below: best.1,
+            cost: 1.0 + self.ci_over_ct * best_weighted,
+        })
+    }
+}
+
+/// What the cost of a plane on one axis needs: with `a`, `b` the other two extents and `w`
+/// this one's (all over the largest extent), SA(child) / SA(cell) =
+/// `(ab + (a + b)·w_child) / (ab + (a + b)·w)`.
+struct AxisGeometry {
+    ab: f32,
+    a_plus_b: f32,
+    inv_area: f32,
+    inv_scale: f32,
+    lo: f32,
+    hi: f32,
 }
