@@ -5,6 +5,7 @@
 mod error;
 pub mod kdtree;
 pub mod render;
+pub mod report;
 pub mod scene;
 pub mod trace;
 

@@ -28,6 +28,9 @@ enum Command {
     Render(RenderArgs),
     /// Measure Mrays/s per ISA and packet size.
     Bench(bench::BenchArgs),
+    /// Sweep kd-tree size (ci_over_ct) against culling: Mrays/s and tests eliminated
+    /// (Reshetov's Figs. 7–9).
+    Sweep(sweep::SweepArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -239,11 +242,13 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
 }
 
 mod bench;
+mod sweep;
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench::run(args),
+        Command::Sweep(args) => sweep::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
