@@ -12,16 +12,15 @@
 //! (`kernels/tests/watertight_leaks.rs`) checks the triangle tests alone; this one adds the
 //! tree, the packet masks and the leaf culling around them.
 //!
-//! The watertight tracer must leak 0 rays. It does not yet: the kd-tree traversal computes the
-//! `t` of each cell boundary on its own, so where a ray meets a shared edge or vertex lying on
+//! The watertight tracer must leak 0 rays, and does. It did not at first: the kd-tree traversal
+//! computed the `t` of each cell boundary on its own, so where a ray meets a shared edge lying on
 //! two boundaries at once (a split plane and the root box, as in
-//! [`ray_through_an_edge_on_a_split_plane_at_the_root_box_hits`], or, on the spheres, which touch
-//! their root box only at six points, presumably two split planes) one ulp can make it skip the
-//! cell whose triangle the watertight test hits, and visit only cells whose triangles it misses
-//! by that ulp. So the zero-leak tests are
-//! ignored until that is fixed, and the test that runs checks what holds meanwhile: every path
-//! leaks the same rays, and the triangle test alone hits every one of them. Kensler–Shirley is
-//! not watertight: its leak rate on the same rays is measured and printed, not asserted.
+//! [`ray_through_an_edge_on_a_split_plane_at_the_root_box_hits`]) one ulp could make it skip the
+//! cell whose triangle the watertight test hits. The traversal now widens every cell interval
+//! by the rounding its boundaries may carry (`split_intervals` in `src/trace/single.rs`). Every
+//! packet path must also leak exactly what the single-ray path leaks (nothing), on every ISA and
+//! packet shape, with the default culling. Kensler–Shirley is not watertight: its leak rate on
+//! the same rays is measured and printed, not asserted.
 
 use kdbeam::kernels::intersect::watertight::WatertightRay;
 use kdbeam::scene::procedural::{closed_grid_box, icosphere};
@@ -239,18 +238,8 @@ const MILLION: usize = 1_000_000 / GROUP / 4 + 1;
 /// Batches of this many groups bound the memory of the 10⁷-ray test.
 const BATCH: usize = 1 << 12;
 
-/// 10⁶ rays per path: the paths agree and the intersector is watertight; the leak counts are
-/// printed (the next test asserts them).
-#[test]
-fn every_path_leaks_the_same_rays_and_only_through_the_traversal() {
-    leak_test(MILLION, BATCH);
-}
-
 /// 10⁶ rays per path: the watertight tracer leaks none.
 #[test]
-#[ignore = "bug: the kd-tree traversal drops the cell a ray enters where it crosses a split \
-            plane exactly on the root box (src/trace/single.rs traverse: `t_enter <= near_exit` \
-            with t_split one ulp below t_enter; the packet traversal follows the same rule)"]
 fn watertight_tracer_leaks_no_ray_through_closed_meshes() {
     let leaking: Vec<_> = leak_test(MILLION, BATCH)
         .into_iter()
@@ -263,9 +252,9 @@ fn watertight_tracer_leaks_no_ray_through_closed_meshes() {
 /// 280/281 (the cell y ≥ 0.5) and 278/279 (y ≤ 0.5) on the face x = −1, which lies in the
 /// kd-tree's split plane y = 0.5. The watertight test hits triangle 281; the traversal enters the
 /// box at t = 1 (the face x = −1), computes t = 0.99999994 for the split plane y = 0.5, and so
-/// visits only the cell y ≤ 0.5, whose triangles the ray misses by an ulp.
+/// visited only the cell y ≤ 0.5, whose triangles the ray misses by an ulp, until the cell
+/// intervals were widened.
 #[test]
-#[ignore = "bug: kd-tree traversal drops a cell at a split plane crossed where the ray enters the root box"]
 fn ray_through_an_edge_on_a_split_plane_at_the_root_box_hits() {
     let mesh = closed_grid_box(16, Vec3::ZERO, Vec3::ONE);
     let tree = KdTree::build(&mesh, &BuildParams::default()).expect("valid mesh");
