@@ -146,7 +146,7 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                             let active = (active >> (c * shape.ray_count())) & p.full_mask();
                             counters.add(&tracer.intersect_packet(&p, active, &mut hp));
                             let occ = tracer.occluded_packet(&p, active);
-                            for j in 0..chunk.len() {
+                            for (j, ray) in chunk.iter().enumerate() {
                                 let (w, wo) = want[c * shape.ray_count() + j];
                                 let on = active >> j & 1 != 0;
                                 let w = if on { w } else { Hit::NONE };
@@ -155,8 +155,7 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                                     g.triangle == w.triangle
                                         && g.t.to_bits() == w.t.to_bits()
                                         && (!w.is_hit() || (g.u.to_bits(), g.v.to_bits()) == (w.u.to_bits(), w.v.to_bits())),
-                                    "{name} ci={ci} {isa} {shape:?} {intersector:?} {culling}: ray {:?}: culled {g:?}, unculled {w:?}",
-                                    chunk[j]
+                                    "{name} ci={ci} {isa} {shape:?} {intersector:?} {culling}: ray {ray:?}: culled {g:?}, unculled {w:?}"
                                 );
                                 assert_eq!(
                                     occ >> j & 1 != 0,

@@ -46,7 +46,7 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                     };
                     tracer.intersect_packet(&p, active, &mut hp);
                     let occ = tracer.occluded_packet(&p, active);
-                    for j in 0..chunk.len() {
+                    for (j, ray) in chunk.iter().enumerate() {
                         let k = c * shape.ray_count() + j;
                         let on = active >> j & 1 != 0;
                         let want = if on { expected[k] } else { Hit::NONE };
@@ -54,8 +54,7 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
                         assert!(
                             got.triangle == want.triangle && got.t.to_bits() == want.t.to_bits()
                                 && (!want.is_hit() || (got.u.to_bits(), got.v.to_bits()) == (want.u.to_bits(), want.v.to_bits())),
-                            "{name} {isa} {shape:?} {intersector:?}: ray {k} {:?}: packet {got:?}, scalar {want:?}",
-                            chunk[j]
+                            "{name} {isa} {shape:?} {intersector:?}: ray {k} {ray:?}: packet {got:?}, scalar {want:?}"
                         );
                         assert_eq!(
                             occ >> j & 1 != 0,

@@ -377,7 +377,7 @@ impl<L: Lanes> Beam<L> {
         for (i, tri) in tris.iter().enumerate().take(64) {
             let v = [self.local(tri.v0), self.local(tri.v1), self.local(tri.v2)];
             let reach = v[0].abs().max(v[1].abs()).max(v[2].abs()).max_element();
-            if !(reach <= self.reach) {
+            if reach.is_nan() || reach > self.reach {
                 out.mask |= 1 << i;
                 continue;
             }
@@ -459,7 +459,7 @@ impl<L: Lanes> Beam<L> {
         let e1 = v[0] - v[2];
         let n = e0.cross(e1);
         let n2 = n.length_squared();
-        if !(n2 > 0.0) {
+        if n2.is_nan() || n2 <= 0.0 {
             return Aperture::Unknown;
         }
         let (nx, ny, nz) = (l.splat(n.x), l.splat(n.y), l.splat(n.z));

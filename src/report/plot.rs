@@ -32,8 +32,9 @@ const LEFT: f64 = 70.0;
 const RIGHT: f64 = 190.0;
 const TOP: f64 = 40.0;
 const BOTTOM: f64 = 60.0;
-const COLORS: [&str; 8] =
-    ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf"];
+const COLORS: [&str; 8] = [
+    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+];
 
 impl LinePlot {
     /// The plot as an SVG document. An empty plot (no finite point) draws only the frame.
@@ -46,9 +47,17 @@ impl LinePlot {
             .filter(|&(x, y)| x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0))
             .map(|(x, y)| (fx(x), y))
             .collect();
-        let (x0, x1) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let (x0, x1) = pts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+                (a.min(p.0), b.max(p.0))
+            });
         let y1 = pts.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.08;
-        let (x0, x1) = if x0 < x1 { (x0, x1) } else { (x0 - 1.0, x0 + 1.0) };
+        let (x0, x1) = if x0 < x1 {
+            (x0, x1)
+        } else {
+            (x0 - 1.0, x0 + 1.0)
+        };
         let y1 = if y1 > 0.0 { y1 } else { 1.0 };
         let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
         let sx = |x: f64| LEFT + (fx(x) - x0) / (x1 - x0) * pw;
@@ -145,7 +154,9 @@ fn format_tick(x: f64) -> String {
 }
 
 fn escape(s: &str) -> String {
-    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
 }
 
 #[cfg(test)]
@@ -160,13 +171,23 @@ mod tests {
             y_label: "y".into(),
             log_x: true,
             series: vec![
-                Series { name: "one".into(), points: vec![(0.1, 1.0), (1.0, 2.0), (10.0, f64::NAN)] },
-                Series { name: "two".into(), points: vec![(0.0, 5.0), (1.0, 3.0)] },
+                Series {
+                    name: "one".into(),
+                    points: vec![(0.1, 1.0), (1.0, 2.0), (10.0, f64::NAN)],
+                },
+                Series {
+                    name: "two".into(),
+                    points: vec![(0.0, 5.0), (1.0, 3.0)],
+                },
             ],
         };
         let svg = p.to_svg();
         assert_eq!(svg.matches("<polyline").count(), 2);
-        assert_eq!(svg.matches("<circle").count(), 3, "NaN and x <= 0 on a log axis are skipped");
+        assert_eq!(
+            svg.matches("<circle").count(),
+            3,
+            "NaN and x <= 0 on a log axis are skipped"
+        );
         assert!(svg.contains("a &lt; b") && !svg.contains("NaN"));
     }
 }

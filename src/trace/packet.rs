@@ -190,6 +190,7 @@ pub(crate) fn octant_masks(p: &RayPacket, mask: u64) -> [u64; 8] {
 
 /// Traverses `tree` with the rays of `mask`, which must all be traceable and share the
 /// direction signs `octant` (bit `a` set for a negative component on axis `a`).
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     l: L,
@@ -606,6 +607,9 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
             Some((&self.hits.t, self.has_hit)),
         );
         let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        // `next` is called directly: a `for` loop goes through `&mut I`'s forwarding `next`,
+        // which is only `#[inline]` and may stay out of the ISA's entry point.
+        #[allow(clippy::while_let_on_iterator)]
         while let Some((first, survivors)) = blocks.next() {
             for g in 0..group_count::<L>(p.len()) {
                 let bits = group_bits::<L>(visit.mask, g);
@@ -724,6 +728,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
         let mut tests = 0u64;
         let beam = leaf_beam(l, p, &visit, &self.culling, None);
         let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        #[allow(clippy::while_let_on_iterator)]
         while let Some((first, s)) = blocks.next() {
             for g in 0..group_count::<L>(p.len()) {
                 let before = group_bits::<L>(open, g);
@@ -763,6 +768,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
 
 /// Closest hits of the rays of `active` in `p`, written to `hits` (misses and inactive or
 /// untraceable rays get [`kdbeam_kernels::Hit::NONE`]).
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
     l: L,

@@ -73,16 +73,28 @@ pub(crate) fn run(args: SweepArgs) -> kdbeam::Result<()> {
     if !args.json {
         println!(
             "{:<18} {:>8} {:<9} {:>9} {:>11} {:>10} {:>10} {:>10}",
-            "scene", "ci/ct", "culling", "Mrays/s", "eliminated", "tests/ray", "nodes/tri", "leaf size"
+            "scene",
+            "ci/ct",
+            "culling",
+            "Mrays/s",
+            "eliminated",
+            "tests/ray",
+            "nodes/tri",
+            "leaf size"
         );
     }
     let mut points = Vec::new();
     for &ci in &ratios {
-        let params = BuildParams { ci_over_ct: ci, ..BuildParams::default() };
+        let params = BuildParams {
+            ci_over_ct: ci,
+            ..BuildParams::default()
+        };
         let tree = with_spinner("building kd-tree", || KdTree::build(&mesh, &params))?;
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         for (label, culling) in cullings {
-            let mut t = Tracer::new(&tree).with_packet(packet_shape(args.packet)?).with_culling(culling);
+            let mut t = Tracer::new(&tree)
+                .with_packet(packet_shape(args.packet)?)
+                .with_culling(culling);
             if let Some(isa) = args.isa {
                 t = t.with_isa(isa)?;
             }
@@ -107,8 +119,14 @@ pub(crate) fn run(args: SweepArgs) -> kdbeam::Result<()> {
             } else {
                 println!(
                     "{:<18} {:>8.3} {:<9} {:>9.2} {:>10.1}% {:>10.2} {:>10.3} {:>10.2}",
-                    p.scene, p.ci_over_ct, p.culling, p.mrays_per_s, p.eliminated_pct,
-                    p.tests_per_ray, p.nodes_per_tri, p.mean_leaf_size
+                    p.scene,
+                    p.ci_over_ct,
+                    p.culling,
+                    p.mrays_per_s,
+                    p.eliminated_pct,
+                    p.tests_per_ray,
+                    p.nodes_per_tri,
+                    p.mean_leaf_size
                 );
             }
             points.push(p);
@@ -138,14 +156,26 @@ fn write_files(dir: &std::path::Path, scene: &str, points: &[Point]) -> kdbeam::
             ]
         })
         .collect();
-    let header = ["scene", "ci_over_ct", "culling", "mrays_per_s", "eliminated_pct", "tests_per_ray", "nodes_per_tri", "mean_leaf_size"];
+    let header = [
+        "scene",
+        "ci_over_ct",
+        "culling",
+        "mrays_per_s",
+        "eliminated_pct",
+        "tests_per_ray",
+        "nodes_per_tri",
+        "mean_leaf_size",
+    ];
     let csv_path = dir.join("sweep.csv");
     std::fs::write(&csv_path, csv(&header, &rows)).map_err(io(csv_path.clone()))?;
     let mut series: Vec<Series> = Vec::new();
     for p in points {
         match series.iter_mut().find(|s| s.name == p.culling) {
             Some(s) => s.points.push((p.nodes_per_tri, p.mrays_per_s)),
-            None => series.push(Series { name: p.culling.clone(), points: vec![(p.nodes_per_tri, p.mrays_per_s)] }),
+            None => series.push(Series {
+                name: p.culling.clone(),
+                points: vec![(p.nodes_per_tri, p.mrays_per_s)],
+            }),
         }
     }
     let plot = LinePlot {
@@ -157,6 +187,10 @@ fn write_files(dir: &std::path::Path, scene: &str, points: &[Point]) -> kdbeam::
     };
     let svg_path = dir.join("sweep.svg");
     std::fs::write(&svg_path, plot.to_svg()).map_err(io(svg_path.clone()))?;
-    println!("wrote      {} and {}", csv_path.display(), svg_path.display());
+    println!(
+        "wrote      {} and {}",
+        csv_path.display(),
+        svg_path.display()
+    );
     Ok(())
 }
