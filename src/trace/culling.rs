@@ -244,13 +244,12 @@ mod tests {
     fn presets_round_trip_through_their_names() {
         for (name, c) in Culling::PRESETS {
             assert_eq!(name.parse::<Culling>().unwrap(), c);
-            let masked = c.with_frustum(Frustum::Masked);
-            assert_eq!(
-                masked.name().parse::<Culling>().unwrap(),
-                masked,
-                "{}",
-                masked.name()
-            );
+            // Without a beam the frustum means nothing, so "none" names every frustum.
+            if c.is_enabled() {
+                let masked = c.with_frustum(Frustum::Masked);
+                let parsed = masked.name().parse::<Culling>().unwrap();
+                assert_eq!(parsed, masked, "{}", masked.name());
+            }
         }
         let c: Culling = "6plane+aperture/masked,distance-first".parse().unwrap();
         assert_eq!((c.frustum, c.aperture_first), (Frustum::Masked, false));
