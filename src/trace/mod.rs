@@ -14,6 +14,8 @@ use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
 pub use packet::PacketCounters;
+#[cfg(feature = "embree")]
+pub(crate) use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
 
