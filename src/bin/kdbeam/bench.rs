@@ -83,11 +83,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     } else {
         args.packet.clone()
     };
-    let scenes = if args.scenes.is_empty() {
-        vec![None]
-    } else {
-        args.scenes.iter().map(|s| Some(s.as_str())).collect()
-    };
+    let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
             "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11} {:>11} {:>9}",
@@ -165,11 +161,31 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     Ok(())
 }
 
-fn print_row(r: &Row, json: bool) {
-    if json {
-        println!("{}", serde_json::to_string(r).expect("rows serialise"));
+/// The scenes to load: those named, or the default scene (`None`) when none is.
+pub(crate) fn scene_names(names: &[String]) -> Vec<Option<&str>> {
+    if names.is_empty() {
+        vec![None]
     } else {
-        println!(
+        names.iter().map(|s| Some(s.as_str())).collect()
+    }
+}
+
+/// Prints `row` as one line of JSON, or as the table line `table` makes.
+pub(crate) fn print_json_or(
+    row: &impl serde::Serialize,
+    json: bool,
+    table: impl FnOnce() -> String,
+) {
+    if json {
+        println!("{}", serde_json::to_string(row).expect("rows serialise"));
+    } else {
+        println!("{}", table());
+    }
+}
+
+fn print_row(r: &Row, json: bool) {
+    print_json_or(r, json, || {
+        format!(
             "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11} {:>8.2}x",
             r.scene,
             r.rays,
@@ -183,8 +199,8 @@ fn print_row(r: &Row, json: bool) {
                 format!("{:.2}", r.tests_per_ray)
             },
             r.speedup_vs_scalar
-        );
-    }
+        )
+    })
 }
 
 /// Median Mrays/s over `args.reps` timed runs after one warm-up, and tests per ray.

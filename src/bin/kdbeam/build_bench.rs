@@ -9,7 +9,7 @@ use std::time::Instant;
 use kdbeam::render::{self, Camera};
 use kdbeam::{BuildParams, KdTree, Tracer};
 
-use super::bench::median_seconds;
+use super::bench::{median_seconds, print_json_or, scene_names};
 use super::{load_scene, packet_shape, thread_pool};
 
 #[derive(clap::Args)]
@@ -63,11 +63,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     }
     let pool = thread_pool(Some(args.threads))?;
     let shape = packet_shape(args.packet)?;
-    let scenes = if args.scenes.is_empty() {
-        vec![None]
-    } else {
-        args.scenes.iter().map(|s| Some(s.as_str())).collect()
-    };
+    let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
             "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11} {:>11} {:>13}",
@@ -157,10 +153,8 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
 }
 
 fn print_row(r: &Row, json: bool) {
-    if json {
-        println!("{}", serde_json::to_string(r).expect("rows serialise"));
-    } else {
-        println!(
+    print_json_or(r, json, || {
+        format!(
             "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11.1} {:>11.1} {:>13.1}",
             r.scene,
             r.triangles,
@@ -170,6 +164,6 @@ fn print_row(r: &Row, json: bool) {
             r.build_ms,
             r.frame_ms,
             r.build_plus_frame_ms
-        );
-    }
+        )
+    })
 }
