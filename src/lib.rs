@@ -2,6 +2,8 @@
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
+#[cfg(feature = "embree")]
+pub mod embree;
 mod error;
 pub mod kdtree;
 pub mod render;

@@ -16,6 +16,8 @@ use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacke
 
 pub use culling::{Culling, Frustum, Planes};
 pub use packet::PacketCounters;
+#[cfg(feature = "embree")]
+pub(crate) use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
 

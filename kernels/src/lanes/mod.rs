@@ -20,6 +20,7 @@ mod avx;
 #[cfg(feature = "std")]
 mod dispatch;
 mod isa;
+mod mxcsr;
 mod portable;
 #[cfg(target_arch = "x86_64")]
 mod proof;
@@ -32,6 +33,7 @@ pub use avx::{Avx, AvxF32, AvxMask};
 #[cfg(feature = "std")]
 pub use dispatch::run_on;
 pub use isa::{Isa, ParseIsaError};
+pub use mxcsr::with_flush_to_zero;
 pub use portable::{Portable, PortableF32, PortableMask};
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]

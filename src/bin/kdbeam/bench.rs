@@ -1,4 +1,4 @@
-//! `kdbeam bench`: Mrays/s per scene, ray set, ISA and packet size.
+//! `kdbeam bench`: Mrays/s per scene, ray set, ISA and packet size, optionally next to Embree.
 
 use std::time::Instant;
 
@@ -35,6 +35,12 @@ pub(crate) struct BenchArgs {
     /// One JSON object per line instead of a table.
     #[arg(long)]
     json: bool,
+    /// Also measure Embree's rtcIntersect1/4/8/16 on the same rays (rows with isa "embree";
+    /// primary rays in kdbeam's 2x2, 4x2, 4x4 and 8x8 tiles; tests/ray is not counted). Embree
+    /// runs in robust mode (intersector "embree_robust") when --intersector is watertight,
+    /// otherwise in its fast mode (intersector "embree"). Needs a build with `--features embree`.
+    #[arg(long)]
+    embree: bool,
     #[command(flatten)]
     tree: TreeArgs,
 }
@@ -49,11 +55,20 @@ struct Row {
     culling: &'static str,
     threads: usize,
     mrays_per_s: f64,
+    /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
     speedup_vs_scalar: f64,
 }
 
 pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
+    if args.embree && !cfg!(feature = "embree") {
+        return Err(kdbeam::Error::InvalidParameter {
+            name: "embree",
+            message:
+                "this kdbeam was built without Embree (cargo build --release --features embree)"
+                    .into(),
+        });
+    }
     let pool = thread_pool(Some(args.threads))?;
     let isas: Vec<Isa> = if args.isa.is_empty() {
         Isa::available().collect()
@@ -68,11 +83,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     } else {
         args.packet.clone()
     };
-    let scenes = if args.scenes.is_empty() {
-        vec![None]
-    } else {
-        args.scenes.iter().map(|s| Some(s.as_str())).collect()
-    };
+    let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
             "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11} {:>11} {:>9}",
@@ -119,26 +130,77 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                 print_row(&row, args.json);
             }
         }
+        #[cfg(feature = "embree")]
+        if args.embree {
+            use kdbeam::embree::{EmbreeOptions, EmbreeScene};
+            let robust = args.tree.intersector == kdbeam::Intersector::Watertight;
+            let options = EmbreeOptions {
+                robust,
+                ..EmbreeOptions::default()
+            };
+            let scene = pool.install(|| EmbreeScene::with_options(&mesh, &options))?;
+            for width in kdbeam::embree::QUERY_WIDTHS {
+                let mrays =
+                    pool.install(|| measure_embree(&args, &scene, width, &rays, &camera))?;
+                let row = Row {
+                    scene: name.clone(),
+                    rays: args.rays.name(),
+                    isa: "embree".into(),
+                    packet: width,
+                    intersector: if robust { "embree_robust" } else { "embree" },
+                    culling: "none",
+                    threads: args.threads,
+                    mrays_per_s: mrays,
+                    tests_per_ray: f64::NAN,
+                    speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
+                };
+                print_row(&row, args.json);
+            }
+        }
     }
     Ok(())
 }
 
-fn print_row(r: &Row, json: bool) {
-    if json {
-        println!("{}", serde_json::to_string(r).expect("rows serialise"));
+/// The scenes to load: those named, or the default scene (`None`) when none is.
+pub(crate) fn scene_names(names: &[String]) -> Vec<Option<&str>> {
+    if names.is_empty() {
+        vec![None]
     } else {
-        println!(
-            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11.2} {:>8.2}x",
+        names.iter().map(|s| Some(s.as_str())).collect()
+    }
+}
+
+/// Prints `row` as one line of JSON, or as the table line `table` makes.
+pub(crate) fn print_json_or(
+    row: &impl serde::Serialize,
+    json: bool,
+    table: impl FnOnce() -> String,
+) {
+    if json {
+        println!("{}", serde_json::to_string(row).expect("rows serialise"));
+    } else {
+        println!("{}", table());
+    }
+}
+
+fn print_row(r: &Row, json: bool) {
+    print_json_or(r, json, || {
+        format!(
+            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11} {:>8.2}x",
             r.scene,
             r.rays,
             r.isa,
             r.packet,
             r.threads,
             r.mrays_per_s,
-            r.tests_per_ray,
+            if r.tests_per_ray.is_nan() {
+                "-".to_string()
+            } else {
+                format!("{:.2}", r.tests_per_ray)
+            },
             r.speedup_vs_scalar
-        );
-    }
+        )
+    })
 }
 
 /// Median Mrays/s over `args.reps` timed runs after one warm-up, and tests per ray.
@@ -180,14 +242,64 @@ fn measure(
         Ok((seconds, counters.tests))
     };
     let (_, tests) = run()?;
-    let mut times = Vec::with_capacity(args.reps);
-    for _ in 0..args.reps.max(1) {
-        times.push(run()?.0);
-    }
-    times.sort_by(f64::total_cmp);
-    let median = times[times.len() / 2];
+    let median = median_seconds(args.reps, || Ok(run()?.0))?;
     Ok((
         rays.len() as f64 / median / 1e6,
         tests as f64 / rays.len() as f64,
     ))
+}
+
+/// The median of `reps` (at least 1) calls of `run`, which returns seconds.
+pub(crate) fn median_seconds(
+    reps: usize,
+    mut run: impl FnMut() -> kdbeam::Result<f64>,
+) -> kdbeam::Result<f64> {
+    let mut times = Vec::with_capacity(reps.max(1));
+    for _ in 0..reps.max(1) {
+        times.push(run()?);
+    }
+    times.sort_by(f64::total_cmp);
+    Ok(times[times.len() / 2])
+}
+
+/// Median Mrays/s of Embree's rtcIntersect`width` over `args.reps` timed runs after one
+/// warm-up, on the same rays as kdbeam: primary rays reordered into kdbeam's tiles of `width`
+/// rays (reordering is not timed; kdbeam's timing includes making its rays), random rays as
+/// they are.
+#[cfg(feature = "embree")]
+pub(crate) fn measure_embree(
+    args: &BenchArgs,
+    scene: &kdbeam::embree::EmbreeScene,
+    width: usize,
+    rays: &[kdbeam::Ray],
+    camera: &Camera,
+) -> kdbeam::Result<f64> {
+    let tiled;
+    let rays = match args.rays {
+        RaySet::Primary => {
+            tiled = kdbeam::embree::primary_rays(camera, width)?.0;
+            &tiled[..]
+        }
+        RaySet::Random => rays,
+    };
+    let seconds = embree_frame_seconds(scene, width, rays, args.reps)?;
+    Ok(rays.len() as f64 / seconds / 1e6)
+}
+
+/// Median seconds of Embree tracing `rays` with rtcIntersect`width`, after one warm-up.
+#[cfg(feature = "embree")]
+pub(crate) fn embree_frame_seconds(
+    scene: &kdbeam::embree::EmbreeScene,
+    width: usize,
+    rays: &[kdbeam::Ray],
+    reps: usize,
+) -> kdbeam::Result<f64> {
+    let mut hits = vec![Hit::NONE; rays.len()];
+    let mut run = || {
+        let start = Instant::now();
+        scene.intersect_stream(rays, width, &mut hits)?;
+        Ok(start.elapsed().as_secs_f64())
+    };
+    run()?;
+    median_seconds(reps, run)
 }

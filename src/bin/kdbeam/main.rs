@@ -26,11 +26,14 @@ struct Cli {
 enum Command {
     /// Render a scene with the standard camera to a PNG; print build and trace statistics.
     Render(RenderArgs),
-    /// Measure Mrays/s per ISA and packet size.
+    /// Measure Mrays/s per ISA and packet size (with --embree: next to Embree's).
     Bench(bench::BenchArgs),
     /// Sweep kd-tree size (ci_over_ct) against culling: Mrays/s and tests eliminated
     /// (Reshetov's Figs. 7–9).
     Sweep(sweep::SweepArgs),
+    /// Measure kd-tree build time per ci_over_ct against Embree's BVH build (with the embree
+    /// feature), and build + one frame of primary rays: the cost per frame of moving geometry.
+    BuildBench(build_bench::BuildBenchArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -242,6 +245,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
 }
 
 mod bench;
+mod build_bench;
 mod sweep;
 
 fn main() -> ExitCode {
@@ -249,6 +253,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench::run(args),
         Command::Sweep(args) => sweep::run(args),
+        Command::BuildBench(args) => build_bench::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,169 @@
+//! `kdbeam build-bench`: kd-tree build time against Embree's BVH build, and build + one frame.
+//!
+//! For moving geometry the structure is rebuilt every frame, so the cost that matters is the
+//! build plus one frame of primary rays. Each kd-tree row is one `ci_over_ct`; each Embree row
+//! one build quality.
+
+use std::time::Instant;
+
+use kdbeam::render::{self, Camera};
+use kdbeam::{BuildParams, KdTree, Tracer};
+
+use super::bench::{median_seconds, print_json_or, scene_names};
+use super::{load_scene, packet_shape, thread_pool};
+
+#[derive(clap::Args)]
+pub(crate) struct BuildBenchArgs {
+    /// Scenes: paths, shared scene names or builtin:NAME (default builtin:default).
+    scenes: Vec<String>,
+    /// SAH cost ratios of the kd-trees, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "0.3,1,3,10")]
+    ci_over_ct: Vec<f32>,
+    /// Image size of the frame, WIDTHxHEIGHT (the standard camera's primary rays).
+    #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
+    size: (u32, u32),
+    /// kdbeam's packet size for the frame (4, 8, 16 or 64), on the widest ISA.
+    #[arg(long, default_value_t = 64)]
+    packet: usize,
+    /// Embree's packet width for the frame (1, 4, 8 or 16); Embree rows need a build with
+    /// `--features embree`.
+    #[arg(long, default_value_t = 16)]
+    embree_width: usize,
+    /// Worker threads, for the builds (kd-tree and Embree) and the frame.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Timed repetitions of each build and frame (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// One JSON object per line instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(serde::Serialize)]
+struct Row {
+    scene: String,
+    triangles: usize,
+    /// `kdtree` or `embree`.
+    structure: &'static str,
+    /// `ci_over_ct=…` or `quality=…`.
+    setting: String,
+    threads: usize,
+    build_ms: f64,
+    frame_ms: f64,
+    build_plus_frame_ms: f64,
+}
+
+pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
+    if ![1, 4, 8, 16].contains(&args.embree_width) {
+        return Err(kdbeam::Error::InvalidParameter {
+            name: "embree-width",
+            message: format!("must be 1, 4, 8 or 16, got {}", args.embree_width),
+        });
+    }
+    let pool = thread_pool(Some(args.threads))?;
+    let shape = packet_shape(args.packet)?;
+    let scenes = scene_names(&args.scenes);
+    if !args.json {
+        println!(
+            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11} {:>11} {:>13}",
+            "scene",
+            "triangles",
+            "struct",
+            "setting",
+            "threads",
+            "build ms",
+            "frame ms",
+            "build+frame"
+        );
+    }
+    for scene in scenes {
+        let (name, mesh) = load_scene(scene)?;
+        let camera = Camera::standard(&mesh.bounds(), args.size.0, args.size.1);
+        let row = |structure, setting, build: f64, frame: f64| Row {
+            scene: name.clone(),
+            triangles: mesh.triangle_count(),
+            structure,
+            setting,
+            threads: args.threads,
+            build_ms: 1e3 * build,
+            frame_ms: 1e3 * frame,
+            build_plus_frame_ms: 1e3 * (build + frame),
+        };
+        for &ci_over_ct in &args.ci_over_ct {
+            let params = BuildParams {
+                ci_over_ct,
+                ..BuildParams::default()
+            };
+            params.validate()?;
+            let (build, frame) = pool.install(|| -> kdbeam::Result<(f64, f64)> {
+                let build = median_seconds(args.reps, || {
+                    let start = Instant::now();
+                    KdTree::build(&mesh, &params)?;
+                    Ok(start.elapsed().as_secs_f64())
+                })?;
+                let tree = KdTree::build(&mesh, &params)?;
+                let tracer = Tracer::new(&tree).with_packet(shape);
+                render::trace_primary(&tracer, &camera, &|_| {});
+                let frame = median_seconds(args.reps, || {
+                    Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
+                })?;
+                Ok((build, frame))
+            })?;
+            print_row(
+                &row("kdtree", format!("ci_over_ct={ci_over_ct}"), build, frame),
+                args.json,
+            );
+        }
+        #[cfg(feature = "embree")]
+        {
+            use kdbeam::embree::{primary_rays, BuildQuality, EmbreeOptions, EmbreeScene};
+            let rays = primary_rays(&camera, args.embree_width)?.0;
+            for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
+                let options = EmbreeOptions {
+                    quality,
+                    ..EmbreeOptions::default()
+                };
+                let (build, frame) = pool.install(|| -> kdbeam::Result<(f64, f64)> {
+                    let build = median_seconds(args.reps, || {
+                        Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
+                    })?;
+                    let scene = EmbreeScene::with_options(&mesh, &options)?;
+                    let frame = super::bench::embree_frame_seconds(
+                        &scene,
+                        args.embree_width,
+                        &rays,
+                        args.reps,
+                    )?;
+                    Ok((build, frame))
+                })?;
+                print_row(
+                    &row(
+                        "embree",
+                        format!("quality={}", quality.name()),
+                        build,
+                        frame,
+                    ),
+                    args.json,
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn print_row(r: &Row, json: bool) {
+    print_json_or(r, json, || {
+        format!(
+            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11.1} {:>11.1} {:>13.1}",
+            r.scene,
+            r.triangles,
+            r.structure,
+            r.setting,
+            r.threads,
+            r.build_ms,
+            r.frame_ms,
+            r.build_plus_frame_ms
+        )
+    })
+}
