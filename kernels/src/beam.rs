@@ -16,12 +16,14 @@
 //!
 //! # Margins
 //!
-//! Every bound is moved outwards by `δ = 2⁻¹⁴·Λ`, where `Λ` bounds the magnitude of every local
-//! quantity the beam is built from (ray origins, crossings, the leaf's extent). Each local value
-//! carries a rounding error of a few ulps of `Λ` (≈ 6·10⁻⁸·Λ each), far below `δ`. A triangle
-//! with a vertex farther than `16·Λ` from the leaf (where the vertex's own rounding could exceed
-//! `δ`) is never culled. The aperture test adds a barycentric margin and refuses grazing corner
-//! rays (see [`Beam::cull`]).
+//! Every bound is moved outwards by `δ = 2⁻¹⁴·max(Λ, B)`, where `Λ` bounds the magnitude of
+//! every local quantity the beam is built from (ray origins, crossings, the leaf's extent) and
+//! `B` bounds every coordinate of the scene (the caller passes it). The side and distance planes
+//! are then moved to world coordinates (the translation folded into their offsets), so a vertex
+//! is tested as read, with three fused multiply-adds; every term of that sum is at most a few
+//! `B` or `Λ`, so its rounding (a few ulps, ≈ 6·10⁻⁸ each) stays far below `δ`. The aperture
+//! test works in local coordinates, adds a barycentric margin and refuses grazing corner rays
+//! (see [`Beam::cull`]).
 
 use glam::Vec3;
 
@@ -71,8 +73,6 @@ const PLANES: usize = 6;
 const FLAT: usize = 16;
 /// `δ = MARGIN·Λ`.
 const MARGIN: f32 = 1.0 / 16384.0;
-/// Vertices within `REACH·Λ` of the leaf may be culled.
-const REACH: f32 = 16.0;
 /// Barycentric margin of the aperture test.
 const BARY_EPS: f32 = 1.0 / 4096.0;
 /// Corner crossings must lie this far (as a fraction of the slab) inside it.
@@ -88,19 +88,20 @@ pub struct Beam<L: Lanes> {
     sign: f32,
     corner: Vec3,
     dx: f32,
-    /// Plane `p` sits in lane `p % WIDTH` of vector `p / WIDTH`: `d = x'·cx + y'·cy + z'·cz + e`,
-    /// negative outside. Planes 4 and 5 are near and far when they are folded in; padding lanes
-    /// have `d = 1`.
-    cx: [L::F32; PLANES],
-    cy: [L::F32; PLANES],
-    cz: [L::F32; PLANES],
+    /// Plane `p` sits in lane `p % WIDTH` of vector `p / WIDTH`, in world coordinates:
+    /// `d = x·wx + y·wy + z·wz + e`, negative outside. Planes 4 and 5 are near and far when they
+    /// are folded in; padding lanes have `d = 1`.
+    wx: [L::F32; PLANES],
+    wy: [L::F32; PLANES],
+    wz: [L::F32; PLANES],
     e: [L::F32; PLANES],
     e_flat: [f32; FLAT],
+    /// The x' coefficient of the far plane, to move it in world coordinates.
+    far_offset: f32,
     plane_vectors: usize,
     distance_folded: bool,
     near: f32,
     far: f32,
-    reach: f32,
     margin: f32,
     /// Corner rays `A_j + σ·D_j`, `σ ∈ [0, 1]`, from the corners of the entry rectangle at
     /// `x' = 0` to those of the exit rectangle at `x' = dx` (`A.x' = 0`, `D.x' = dx`).
@@ -119,7 +120,8 @@ impl<L: Lanes> Beam<L> {
     /// used (no prevalent axis: the caller tests unculled), when `used` is empty, or when the
     /// box or a ray is not finite. `best_t`, when given, holds each ray's closest hit so far:
     /// if every ray used has one (bit set in `has_hit`), triangles entirely beyond all of them
-    /// are culled by the far plane.
+    /// are culled by the far plane. `scene_bound` bounds the absolute value of every vertex
+    /// coordinate of the scene (it sets the margin that covers the rounding of the vertex test).
     ///
     /// **Prevalent axis.** Among axes on which every ray used has a direction component of one
     /// non-zero sign, the one whose smallest `|d|` is largest (Reshetov: the largest prevalent
@@ -141,6 +143,7 @@ impl<L: Lanes> Beam<L> {
         leaf: &Aabb,
         best_t: Option<(&[f32; MAX_PACKET_RAYS], u64)>,
         stages: Stages,
+        scene_bound: f32,
     ) -> Option<Self> {
         if used == 0 || !leaf.min.is_finite() || !leaf.max.is_finite() {
             return None;
@@ -247,7 +250,7 @@ impl<L: Lanes> Beam<L> {
             mag = L::F32::select(act, m, zero).max(mag);
         }
         let lambda = mag.reduce_max() + dx + ext.max_element();
-        let margin = lambda * MARGIN;
+        let margin = lambda.max(scene_bound) * MARGIN;
         if !(margin.is_finite() && lambda.is_finite()) {
             return None;
         }
@@ -296,6 +299,19 @@ impl<L: Lanes> Beam<L> {
             (cx[5], e[5]) = (-1.0, far);
         }
         let plane_vectors = if distance_folded { PLANES } else { 4 }.div_ceil(w);
+        // To world coordinates: x' = s·(v[k] − c.x), y' = v[k1] − c.y, z' = v[k2] − c.z.
+        let mut wx = [0.0f32; FLAT];
+        let mut wy = [0.0f32; FLAT];
+        let mut wz = [0.0f32; FLAT];
+        for pl in 0..PLANES {
+            let coef = [cx[pl] * sign, cy[pl], cz[pl]];
+            e[pl] -= coef[0] * corner.x + coef[1] * corner.y + coef[2] * corner.z;
+            let mut world = [0.0f32; 3];
+            for (a, c) in axes.iter().zip(coef) {
+                world[*a] = c;
+            }
+            (wx[pl], wy[pl], wz[pl]) = (world[0], world[1], world[2]);
+        }
         let at = |flat: &[f32; FLAT], v: usize| l.load(&flat[(v * w).min(FLAT - w)..]);
         let corner_a = [[y00, y01, y01, y00], [z00, z00, z01, z01]];
         let corner_d = [
@@ -308,16 +324,16 @@ impl<L: Lanes> Beam<L> {
             sign,
             corner,
             dx,
-            cx: core::array::from_fn(|v| at(&cx, v)),
-            cy: core::array::from_fn(|v| at(&cy, v)),
-            cz: core::array::from_fn(|v| at(&cz, v)),
+            wx: core::array::from_fn(|v| at(&wx, v)),
+            wy: core::array::from_fn(|v| at(&wy, v)),
+            wz: core::array::from_fn(|v| at(&wz, v)),
             e: core::array::from_fn(|v| at(&e, v)),
             e_flat: e,
+            far_offset: sign * corner.x,
             plane_vectors,
             distance_folded,
             near,
             far,
-            reach: REACH * lambda,
             margin,
             corner_a,
             corner_d,
@@ -375,20 +391,14 @@ impl<L: Lanes> Beam<L> {
         let zero = l.splat(0.0);
         let mut out = Survivors::default();
         for (i, tri) in tris.iter().enumerate().take(64) {
-            let v = [self.local(tri.v0), self.local(tri.v1), self.local(tri.v2)];
-            let reach = v[0].abs().max(v[1].abs()).max(v[2].abs()).max_element();
-            if reach.is_nan() || reach > self.reach {
-                out.mask |= 1 << i;
-                continue;
-            }
             let mut culled = false;
             for pv in 0..self.plane_vectors {
                 let mut outside = !l.mask_from_bits(0);
-                for vk in &v {
-                    let d = l.splat(vk.x).mul_add(
-                        self.cx[pv],
-                        l.splat(vk.y)
-                            .mul_add(self.cy[pv], l.splat(vk.z).mul_add(self.cz[pv], self.e[pv])),
+                for v in [tri.v0, tri.v1, tri.v2] {
+                    let d = l.splat(v.x).mul_add(
+                        self.wx[pv],
+                        l.splat(v.y)
+                            .mul_add(self.wy[pv], l.splat(v.z).mul_add(self.wz[pv], self.e[pv])),
                     );
                     outside = outside & d.lt(zero);
                 }
@@ -404,6 +414,11 @@ impl<L: Lanes> Beam<L> {
                 }
                 continue;
             }
+            if !self.stages.aperture && (self.distance_folded || !self.stages.distance) {
+                out.mask |= 1 << i;
+                continue;
+            }
+            let v = [self.local(tri.v0), self.local(tri.v1), self.local(tri.v2)];
             if self.stages.aperture {
                 match self.aperture(&v) {
                     Aperture::Outside => {
@@ -444,7 +459,7 @@ impl<L: Lanes> Beam<L> {
         self.far = x_far;
         if self.distance_folded {
             let w = L::WIDTH;
-            self.e_flat[5] = x_far;
+            self.e_flat[5] = self.far_offset + x_far;
             let v = 5 / w;
             self.e[v] = self.l.load(&self.e_flat[(v * w).min(FLAT - w)..]);
         }

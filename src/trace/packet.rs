@@ -145,6 +145,8 @@ pub(crate) struct LeafVisit<'a> {
     pub mask: u64,
     /// Every ray of this traversal (the maskless frustum's rays).
     pub packet_mask: u64,
+    /// The largest absolute coordinate of the scene.
+    pub scene_bound: f32,
 }
 
 /// What a packet traversal does in each leaf.
@@ -221,6 +223,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let mut t_enter = [0f32; N];
     let mut t_exit = [0f32; N];
     let bounds = root_bounds(tree);
+    let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
     let mut clipped = 0u64;
     for g in 0..groups {
         let bits = group_bits::<L>(mask, g);
@@ -329,6 +332,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                         bounds: &leaf.bounds,
                         mask,
                         packet_mask,
+                        scene_bound,
                     },
                     counters,
                 );
@@ -470,7 +474,17 @@ fn leaf_beam<L: Lanes>(
 ) -> Option<Beam<L>> {
     culling
         .beam_rays(visit.triangles.ids.len(), visit.mask, visit.packet_mask)
-        .and_then(|used| Beam::new(l, p, used, visit.bounds, best, culling.stages()))
+        .and_then(|used| {
+            Beam::new(
+                l,
+                p,
+                used,
+                visit.bounds,
+                best,
+                culling.stages(),
+                visit.scene_bound,
+            )
+        })
 }
 
 /// The blocks of up to 64 triangles of a leaf that hold triangles to test, culled by a beam

@@ -26,6 +26,9 @@ pub(crate) struct BenchArgs {
     /// 1, 4, 8, 16, 64).
     #[arg(long, value_delimiter = ',')]
     packet: Vec<usize>,
+    /// Culling settings to measure, comma separated (see `kdbeam render --help`).
+    #[arg(long, value_delimiter = ',', default_value = "none,auto")]
+    culling: Vec<kdbeam::trace::Culling>,
     /// Worker threads (default 1).
     #[arg(long, default_value_t = 1)]
     threads: usize,
@@ -52,7 +55,7 @@ struct Row {
     isa: String,
     packet: usize,
     intersector: &'static str,
-    culling: &'static str,
+    culling: String,
     threads: usize,
     mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
@@ -86,8 +89,16 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
     let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
-            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11} {:>11} {:>9}",
-            "scene", "rays", "isa", "packet", "threads", "Mrays/s", "tests/ray", "vs scalar"
+            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>7} {:>9} {:>9} {:>9}",
+            "scene",
+            "rays",
+            "isa",
+            "packet",
+            "culling",
+            "threads",
+            "Mrays/s",
+            "tests/ray",
+            "vs scalar"
         );
     }
     for scene in scenes {
@@ -103,31 +114,44 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                 isas.clone()
             };
             for &isa in &configs {
-                let base = Tracer::new(&tree)
-                    .with_intersector(args.tree.intersector)
-                    .with_isa(isa)?;
-                let (mrays, tests) =
-                    pool.install(|| measure(&args, base, packet, &rays, &camera))?;
-                if packet == 1 {
-                    scalar = Some(mrays);
-                }
-                let row = Row {
-                    scene: name.clone(),
-                    rays: args.rays.name(),
-                    isa: if packet == 1 {
-                        "scalar".into()
-                    } else {
-                        isa.to_string()
-                    },
-                    packet,
-                    intersector: args.tree.intersector.name(),
-                    culling: "none",
-                    threads: args.threads,
-                    mrays_per_s: mrays,
-                    tests_per_ray: tests,
-                    speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
+                // Single rays are never culled: one row for them.
+                let cullings = if packet == 1 {
+                    &args.culling[..1]
+                } else {
+                    &args.culling[..]
                 };
-                print_row(&row, args.json);
+                for &culling in cullings {
+                    let base = Tracer::new(&tree)
+                        .with_intersector(args.tree.intersector)
+                        .with_isa(isa)?
+                        .with_culling(culling);
+                    let (mrays, tests) =
+                        pool.install(|| measure(&args, base, packet, &rays, &camera))?;
+                    if packet == 1 {
+                        scalar = Some(mrays);
+                    }
+                    let row = Row {
+                        scene: name.clone(),
+                        rays: args.rays.name(),
+                        isa: if packet == 1 {
+                            "scalar".into()
+                        } else {
+                            isa.to_string()
+                        },
+                        packet,
+                        intersector: args.tree.intersector.name(),
+                        culling: if packet == 1 {
+                            "none".into()
+                        } else {
+                            culling.name()
+                        },
+                        threads: args.threads,
+                        mrays_per_s: mrays,
+                        tests_per_ray: tests,
+                        speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
+                    };
+                    print_row(&row, args.json);
+                }
             }
         }
         #[cfg(feature = "embree")]
@@ -148,7 +172,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                     isa: "embree".into(),
                     packet: width,
                     intersector: if robust { "embree_robust" } else { "embree" },
-                    culling: "none",
+                    culling: "none".into(),
                     threads: args.threads,
                     mrays_per_s: mrays,
                     tests_per_ray: f64::NAN,
@@ -186,11 +210,12 @@ pub(crate) fn print_json_or(
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<22} {:<8} {:<9} {:>6} {:>9} {:>11.2} {:>11} {:>8.2}x",
+            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>7} {:>9.2} {:>9} {:>8.2}x",
             r.scene,
             r.rays,
             r.isa,
             r.packet,
+            r.culling,
             r.threads,
             r.mrays_per_s,
             if r.tests_per_ray.is_nan() {
