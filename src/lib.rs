@@ -1,4 +1,4 @@
-//! kdbeam: SIMD packet ray tracing through SAH kd-trees, with Reshetov's transient frustum.
+#![doc = include_str!("../README.md")]
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
