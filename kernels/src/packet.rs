@@ -159,6 +159,8 @@ pub struct HitPacket {
     pub v: [f32; MAX_PACKET_RAYS],
     /// Triangle id per ray.
     pub triangle: [u32; MAX_PACKET_RAYS],
+    /// Ray–triangle tests performed for each ray (after culling): heat maps.
+    pub tests: [u32; MAX_PACKET_RAYS],
 }
 
 impl Default for HitPacket {
@@ -168,6 +170,7 @@ impl Default for HitPacket {
             u: [0.0; MAX_PACKET_RAYS],
             v: [0.0; MAX_PACKET_RAYS],
             triangle: [u32::MAX; MAX_PACKET_RAYS],
+            tests: [0; MAX_PACKET_RAYS],
         }
     }
 }

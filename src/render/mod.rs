@@ -7,7 +7,7 @@ mod shade;
 
 use std::time::Instant;
 
-use kdbeam_kernels::{Hit, HitPacket, Ray, RayPacket};
+use kdbeam_kernels::{Hit, HitPacket, RayPacket};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -26,6 +26,8 @@ pub struct Frame {
     pub camera: Camera,
     /// Hit per pixel, row by row.
     pub hits: Vec<Hit>,
+    /// Ray–triangle tests per pixel (after culling), row by row.
+    pub tests: Vec<u32>,
     /// Traversal work summed over packets.
     pub counters: PacketCounters,
     /// Wall-clock seconds spent tracing.
@@ -74,8 +76,8 @@ pub fn trace_primary(
 ) -> Frame {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let (tw, th) = (tracer.packet().width(), tracer.packet().height());
-    let mut hits = vec![Hit::NONE; w * h];
-    let band = |(band, out): (usize, &mut [Hit])| {
+    let mut hits = vec![(Hit::NONE, 0u32); w * h];
+    let band = |(band, out): (usize, &mut [(Hit, u32)])| {
         let mut counters = PacketCounters::default();
         let mut rays = Vec::with_capacity(tw * th);
         let rows = out.len() / w;
@@ -92,7 +94,8 @@ pub fn trace_primary(
             counters.add(&tracer.intersect_packet(&p, p.full_mask(), &mut hp));
             for dy in 0..rows {
                 for dx in 0..cols {
-                    out[dy * w + tx + dx] = hp.hit(dy * cols + dx);
+                    let j = dy * cols + dx;
+                    out[dy * w + tx + dx] = (hp.hit(j), hp.tests[j]);
                 }
             }
         }
@@ -107,25 +110,25 @@ pub fn trace_primary(
     let seconds = start.elapsed().as_secs_f64();
     let mut counters = PacketCounters::default();
     per_band.iter().for_each(|c| counters.add(c));
+    let (hits, tests) = hits.into_iter().unzip();
     Frame {
         camera: *camera,
         hits,
+        tests,
         counters,
         seconds,
     }
 }
 
-/// Ray–triangle tests per pixel on the scalar path, as a heat map on a log scale from 1 to the
-/// largest count in the image.
-pub fn heatmap(tracer: &Tracer<'_>, camera: &Camera) -> Image {
-    let rays: Vec<Ray> = camera.rays();
-    let tests: Vec<u64> = rays
-        .iter()
-        .map(|r| tracer.intersect_counted(r).1.tests)
-        .collect();
-    let max = tests.iter().copied().max().unwrap_or(0).max(1) as f32;
+/// Ray–triangle tests per pixel, as a heat map on a log scale from 1 to `max` (the frame's own
+/// largest count when `None`, so that two maps can share a scale).
+pub fn heatmap(frame: &Frame, max: Option<u32>) -> Image {
+    let camera = &frame.camera;
+    let max = max
+        .unwrap_or_else(|| frame.tests.iter().copied().max().unwrap_or(0))
+        .max(1) as f32;
     let mut img = Image::new(camera.width, camera.height);
-    for (i, &t) in tests.iter().enumerate() {
+    for (i, &t) in frame.tests.iter().enumerate() {
         let (x, y) = (i as u32 % camera.width, i as u32 / camera.width);
         let (px, py) = (camera.width - 1 - x, camera.height - 1 - y);
         img.set_linear(px, py, heat_color((1.0 + t as f32).ln() / (1.0 + max).ln()));

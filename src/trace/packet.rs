@@ -639,6 +639,12 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
                         self.hits,
                     );
                     self.has_hit |= u64::from(better) << (g * L::WIDTH);
+                    let tested = survivors.mask.count_ones();
+                    let mut lanes = bits;
+                    while lanes != 0 {
+                        self.hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
+                        lanes &= lanes - 1;
+                    }
                     #[cfg(feature = "stats")]
                     {
                         counters.hits += u64::from(better.count_ones());

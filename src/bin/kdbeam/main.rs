@@ -58,7 +58,8 @@ struct RenderArgs {
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
     size: (u32, u32),
-    /// Also write a heat map of ray–triangle tests per pixel next to the picture.
+    /// Also draw heat maps of ray–triangle tests per pixel next to the picture: without
+    /// culling, then with the chosen culling, on one log scale.
     #[arg(long)]
     heatmap: bool,
     /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
@@ -236,7 +237,13 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
         }
         let mut image = frame.shade(&mesh);
         if args.heatmap {
-            image = image.beside(&render::heatmap(&tracer, &camera));
+            // Tests per pixel without culling, then with this tracer's culling, on one scale.
+            let unculled = tracer.with_culling(Culling::NONE);
+            let reference = render::trace_primary(&unculled, &camera, &|_| {});
+            let max = reference.tests.iter().chain(&frame.tests).copied().max();
+            image = image
+                .beside(&render::heatmap(&reference, max))
+                .beside(&render::heatmap(&frame, max));
         }
         image.write_png(&args.out)?;
         println!("wrote      {}", args.out.display());
