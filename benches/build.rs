@@ -3,29 +3,11 @@
 //! `cargo bench --bench build`; `KDBEAM_SCENES` points at the shared meshes (the built-in
 //! default scene is measured when they are missing). Throughput is in mesh triangles.
 
+use common::scenes;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use kdbeam::scene::{self, procedural};
-use kdbeam::{BuildParams, KdTree, Mesh};
+use kdbeam::{BuildParams, KdTree};
 
-fn scenes() -> Vec<(String, Mesh)> {
-    let mut out = Vec::new();
-    for name in ["bunny", "sponza", "dragon"] {
-        if let Some(path) = scene::shared_scene(name) {
-            out.push((
-                name.to_string(),
-                scene::load_obj(path).expect("shared scene loads"),
-            ));
-        }
-    }
-    if out.is_empty() {
-        eprintln!("shared scenes not found: measuring builtin:default only");
-        out.push((
-            "builtin:default".into(),
-            procedural::builtin("default").expect("built-in"),
-        ));
-    }
-    out
-}
+mod common;
 
 fn build(c: &mut Criterion) {
     let one = rayon::ThreadPoolBuilder::new()

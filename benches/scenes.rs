@@ -4,32 +4,14 @@
 //! default scene is measured when they are missing). The scalar single-ray path is the
 //! baseline in the same group.
 
+use common::scenes;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use kdbeam::render::{trace_primary, Camera};
-use kdbeam::scene::{self, procedural};
-use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
+use kdbeam::{BuildParams, Isa, KdTree, PacketShape, Tracer};
+
+mod common;
 
 const SIZE: u32 = 256;
-
-fn scenes() -> Vec<(String, Mesh)> {
-    let mut out = Vec::new();
-    for name in ["bunny", "sponza", "dragon"] {
-        if let Some(path) = scene::shared_scene(name) {
-            out.push((
-                name.to_string(),
-                scene::load_obj(path).expect("shared scene loads"),
-            ));
-        }
-    }
-    if out.is_empty() {
-        eprintln!("shared scenes not found: measuring builtin:default only");
-        out.push((
-            "builtin:default".into(),
-            procedural::builtin("default").expect("built-in"),
-        ));
-    }
-    out
-}
 
 fn primary(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new()

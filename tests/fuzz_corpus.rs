@@ -43,3 +43,11 @@ fn trace_packets_corpus_passes() {
         fuzz_checks::trace_packets(&bytes);
     }
 }
+
+#[test]
+fn culling_corpus_passes() {
+    for (path, bytes) in corpus("culling") {
+        eprintln!("{}", path.display());
+        fuzz_checks::culling(&bytes);
+    }
+}

@@ -786,6 +786,26 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
     }
 }
 
+/// Traverses `tree` with the traceable rays of `active` in `p`, one sub-packet per octant of
+/// direction signs.
+#[inline(always)]
+fn traverse_packet<L: Lanes, V: PacketVisitor<L>>(
+    l: L,
+    tree: &KdTree,
+    p: &RayPacket,
+    active: u64,
+    visitor: &mut V,
+    stack: &mut Stack,
+    counters: &mut PacketCounters,
+) {
+    let octants = octant_masks(p, traceable_mask(p, active));
+    for (octant, mask) in octants.into_iter().enumerate() {
+        if mask != 0 {
+            traverse_octant(l, tree, p, mask, octant, visitor, stack, counters);
+        }
+    }
+}
+
 /// Closest hits of the rays of `active` in `p`, written to `hits` (misses and inactive or
 /// untraceable rays get [`kdbeam_kernels::Hit::NONE`]).
 #[allow(clippy::too_many_arguments)]
@@ -801,14 +821,7 @@ pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
     counters: &mut PacketCounters,
 ) {
     let mut visitor = ClosestHits::<T>::new(hits, p, culling);
-    for (octant, mask) in octant_masks(p, traceable_mask(p, active))
-        .into_iter()
-        .enumerate()
-    {
-        if mask != 0 {
-            traverse_octant(l, tree, p, mask, octant, &mut visitor, stack, counters);
-        }
-    }
+    traverse_packet(l, tree, p, active, &mut visitor, stack, counters);
     counters.tests += visitor.tests;
     visitor.finish();
 }
@@ -831,14 +844,7 @@ pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
         occluded: 0,
         test: core::marker::PhantomData,
     };
-    for (octant, mask) in octant_masks(p, traceable_mask(p, active))
-        .into_iter()
-        .enumerate()
-    {
-        if mask != 0 {
-            traverse_octant(l, tree, p, mask, octant, &mut visitor, stack, counters);
-        }
-    }
+    traverse_packet(l, tree, p, active, &mut visitor, stack, counters);
     counters.tests += visitor.tests;
     visitor.occluded
 }

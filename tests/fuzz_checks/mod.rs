@@ -10,6 +10,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+use kdbeam::trace::{Culling, Frustum};
 use kdbeam::{
     BuildParams, Error, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray,
     RayPacket, Tracer, Vec3,
@@ -90,7 +91,7 @@ pub fn obj_loader(data: &[u8]) {
         assert_eq!(again.as_ref().ok(), Some(&mesh), "a loaded mesh is valid");
         let tree = KdTree::build(&mesh, &BuildParams::default()).expect("a valid mesh builds");
         let rays = kdbeam::render::random_rays(&mesh.bounds(), 16, data.len() as u64);
-        packets_equal_scalar(&tree, &rays, u64::MAX);
+        packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
     }
 }
 
@@ -189,15 +190,41 @@ fn decode_scene(data: &[u8]) -> (Mesh, BuildParams, Vec<Ray>, u64) {
 pub fn trace_packets(data: &[u8]) {
     let (mesh, params, rays, active) = decode_scene(data);
     let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
-    packets_equal_scalar(&tree, &rays, active);
+    packets_equal_scalar(&tree, &rays, active, Culling::NONE);
 }
 
-/// Every packet path equals the scalar path on `rays`, each packet's active rays chosen by
-/// `active` (shifted by the packet's place in the stream); streams too.
+/// The culling settings the `culling` target chooses from: every preset, the masked frustum
+/// and the distance-first order.
+fn culling_settings() -> Vec<Culling> {
+    let mut out: Vec<Culling> = Culling::PRESETS.iter().skip(1).map(|(_, c)| *c).collect();
+    out.push(Culling::FULL.with_frustum(Frustum::Masked));
+    out.push(
+        Culling::FULL
+            .with_frustum(Frustum::Masked)
+            .with_aperture_first(false),
+    );
+    out
+}
+
+/// The `culling` target: the scene and rays of [`trace_packets`], traced with the culling
+/// setting the input's last byte chooses.
+///
+/// Checks: every packet and stream path with culling equals the scalar path (which never culls)
+/// bit for bit: no culling stage ever changes a hit.
+pub fn culling(data: &[u8]) {
+    let (mesh, params, rays, active) = decode_scene(data);
+    let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
+    let settings = culling_settings();
+    let choice = settings[usize::from(data.last().copied().unwrap_or(0)) % settings.len()];
+    packets_equal_scalar(&tree, &rays, active, choice);
+}
+
+/// Every packet path with `culling` equals the scalar path on `rays`, each packet's active rays
+/// chosen by `active` (shifted by the packet's place in the stream); streams too.
 ///
 /// Tolerance: none. The lane kernels compute what the scalar ones do, operation for operation,
 /// so hits agree to the bit, ids and barycentrics included.
-pub fn packets_equal_scalar(tree: &KdTree, rays: &[Ray], active: u64) {
+pub fn packets_equal_scalar(tree: &KdTree, rays: &[Ray], active: u64, culling: Culling) {
     for intersector in Intersector::ALL {
         let scalar = Tracer::new(tree)
             .with_isa(Isa::Scalar)
@@ -218,7 +245,11 @@ pub fn packets_equal_scalar(tree: &KdTree, rays: &[Ray], active: u64) {
         }
         for isa in Isa::available() {
             for shape in PacketShape::ALL {
-                let tracer = scalar.with_isa(isa).expect("available").with_packet(shape);
+                let tracer = scalar
+                    .with_isa(isa)
+                    .expect("available")
+                    .with_packet(shape)
+                    .with_culling(culling);
                 let n = shape.ray_count();
                 let mut hits = HitPacket::default();
                 for (c, chunk) in rays.chunks(n).enumerate() {
