@@ -143,7 +143,7 @@ impl SyntheticParams {
                 format!("must be from 1 to 1048576, got {}", self.packets),
             ));
         }
-        if !(self.tmax > 0.0) {
+        if self.tmax.is_nan() || self.tmax <= 0.0 {
             return Err(invalid(
                 "tmax",
                 format!("must be positive, got {}", self.tmax),
