@@ -5,6 +5,7 @@ mod obj;
 pub mod procedural;
 pub mod rng;
 mod shared;
+pub mod synthetic;
 
 pub use mesh::Mesh;
 pub use obj::load_obj;

@@ -5,6 +5,7 @@
 
 mod culling;
 mod dispatch;
+pub mod leaf;
 mod packet;
 pub mod reference;
 mod single;

@@ -574,7 +574,7 @@ pub(crate) struct ClosestHits<'h, T> {
     /// Rays that have a hit.
     has_hit: u64,
     /// Ray–triangle tests performed.
-    tests: u64,
+    pub(super) tests: u64,
     test: core::marker::PhantomData<T>,
 }
 

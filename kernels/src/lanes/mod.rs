@@ -27,6 +27,7 @@ mod proof;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod sse;
+mod tsc;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx::{Avx, AvxF32, AvxMask};
@@ -38,6 +39,7 @@ pub use portable::{Portable, PortableF32, PortableMask};
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]
 pub use sse::{Sse, SseF32, SseMask};
+pub use tsc::tsc;
 
 /// An instruction set and width, as a token that proves the CPU supports it.
 ///

@@ -34,6 +34,9 @@ enum Command {
     /// Measure kd-tree build time per ci_over_ct against Embree's BVH build (with the embree
     /// feature), and build + one frame of primary rays: the cost per frame of moving geometry.
     BuildBench(build_bench::BuildBenchArgs),
+    /// Cycles per ray–triangle test on Kensler–Shirley synthetic data (one leaf, no tree), per
+    /// culling setting next to the unculled baseline (Reshetov's Figs. 3–5).
+    Synthetic(synthetic::SyntheticArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -254,6 +257,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
 mod bench;
 mod build_bench;
 mod sweep;
+mod synthetic;
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
@@ -261,6 +265,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::BuildBench(args) => build_bench::run(args),
+        Command::Synthetic(args) => synthetic::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
