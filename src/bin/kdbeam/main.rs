@@ -34,6 +34,9 @@ enum Command {
     /// Measure kd-tree build time per ci_over_ct against Embree's BVH build (with the embree
     /// feature), and build + one frame of primary rays: the cost per frame of moving geometry.
     BuildBench(build_bench::BuildBenchArgs),
+    /// Run time against error: every intersector × ISA × culling mode against the f64 oracle
+    /// (hit/miss disagreements, wrong triangle ids, edge ties, relative error of t).
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -244,6 +247,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
     })
 }
 
+mod accuracy;
 mod bench;
 mod build_bench;
 mod sweep;
@@ -254,6 +258,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(args),
         Command::Sweep(args) => sweep::run(args),
         Command::BuildBench(args) => build_bench::run(args),
+        Command::Accuracy(args) => accuracy::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
