@@ -145,7 +145,7 @@ pub(crate) fn run(args: AccuracyArgs) -> kdbeam::Result<()> {
     };
     if !args.json {
         println!(
-            "{:<14} {:<7} {:<15} {:<8} {:<24} {:>8} {:>7} {:>7} {:>6} {:>9} {:>9} {:>9}",
+            "{:<16} {:<7} {:<15} {:<8} {:<24} {:>8} {:>7} {:>7} {:>6} {:>9} {:>9} {:>9}",
             "scene",
             "rays",
             "intersector",
@@ -196,7 +196,7 @@ pub(crate) fn run(args: AccuracyArgs) -> kdbeam::Result<()> {
 
 fn table_line(r: &Row) -> String {
     format!(
-        "{:<14} {:<7} {:<15} {:<8} {:<24} {:>8.1} {:>7} {:>7} {:>6} {:>9.2e} {:>9.2e} {:>9.2e}",
+        "{:<16} {:<7} {:<15} {:<8} {:<24} {:>8.1} {:>7} {:>7} {:>6} {:>9.2e} {:>9.2e} {:>9.2e}",
         r.scene,
         r.rays,
         r.intersector,
@@ -213,7 +213,8 @@ fn table_line(r: &Row) -> String {
 }
 
 /// accuracy.csv, and two plots of ns per ray against error: disagreements per million rays
-/// (accuracy.svg) and the p99 relative `t` error (accuracy_t.svg), one series per scene, ray
+/// (accuracy.svg) and the p99 relative `t` error in units of 1e-7, as the plot prints 3
+/// decimals (accuracy_t.svg), one series per scene, ray
 /// set and intersector, its points sorted by run time.
 fn write_files(dir: &Path, rows: &[Row]) -> kdbeam::Result<()> {
     let io = |path: PathBuf| move |source| kdbeam::Error::Io { path, source };
@@ -221,7 +222,7 @@ fn write_files(dir: &Path, rows: &[Row]) -> kdbeam::Result<()> {
     let csv_path = dir.join("accuracy.csv");
     let fields: Vec<Vec<String>> = rows.iter().map(Row::fields).collect();
     std::fs::write(&csv_path, csv(&HEADER, &fields)).map_err(io(csv_path.clone()))?;
-    println!("wrote      {}", csv_path.display());
+    eprintln!("wrote      {}", csv_path.display());
     type Metric = fn(&Row) -> f64;
     let plots: [(&str, &str, Metric); 2] = [
         (
@@ -258,7 +259,7 @@ fn write_files(dir: &Path, rows: &[Row]) -> kdbeam::Result<()> {
         };
         let path = dir.join(file);
         std::fs::write(&path, plot.to_svg()).map_err(io(path.clone()))?;
-        println!("wrote      {}", path.display());
+        eprintln!("wrote      {}", path.display());
     }
     Ok(())
 }
