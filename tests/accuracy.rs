@@ -9,20 +9,11 @@
 //!    neighbour across a shared edge a tie.
 
 use kdbeam::render::RaySet;
-use kdbeam::report::accuracy::{compare, reference_hits, Accuracy, Workload};
+use kdbeam::report::accuracy::{compare, reference_hits, Accuracy, Workload, CULLINGS};
 use kdbeam::scene::procedural;
 use kdbeam::trace::reference::ReferenceHit;
-use kdbeam::trace::{Culling, Frustum, Planes};
+use kdbeam::trace::Culling;
 use kdbeam::{BuildParams, Hit, Intersector, Isa, KdTree, Mesh, Ray, Tracer, Vec3};
-
-/// The culling modes `kdbeam accuracy` measures.
-const CULLINGS: [Culling; 5] = [
-    Culling::NONE,
-    Culling::planes(Planes::Four, false),
-    Culling::FULL,
-    Culling::FULL.with_frustum(Frustum::Masked),
-    Culling::AUTO,
-];
 
 fn as_reference(hits: &[Hit]) -> Vec<Option<ReferenceHit>> {
     hits.iter()

@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::kdtree::KdTree;
 use crate::render::{self, Camera, RaySet};
 use crate::trace::reference::{kd_oracle, ReferenceHit};
-use crate::trace::Tracer;
+use crate::trace::{Culling, Frustum, Planes, Tracer};
 use crate::{Error, Mesh, Result};
 
 /// Relative part of the edge-tie tolerance on `t`: f32 carries 24 bits (6e-8 relative) and a
@@ -26,6 +26,17 @@ pub const TIE_REL_TOLERANCE: f64 = 1e-4;
 /// Absolute part of the edge-tie tolerance on `t`, as a fraction of the scene's diagonal: it
 /// covers hits near the ray origin, where a relative bound is meaningless.
 pub const TIE_DIAG_TOLERANCE: f64 = 1e-6;
+
+/// The culling modes of the run-time-against-error table: none, the four vertex planes, the
+/// full frustum (six planes and the aperture test) maskless and masked, and the default.
+/// Culling never changes a hit, so their errors are equal and only their run times differ.
+pub const CULLINGS: [Culling; 5] = [
+    Culling::NONE,
+    Culling::planes(Planes::Four, false),
+    Culling::FULL,
+    Culling::FULL.with_frustum(Frustum::Masked),
+    Culling::AUTO,
+];
 
 /// How a set of hits differs from the oracle's.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]

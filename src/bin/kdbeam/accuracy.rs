@@ -3,9 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use kdbeam::render::RaySet;
-use kdbeam::report::accuracy::{reference_hits, Measurement, Workload};
+use kdbeam::report::accuracy::{reference_hits, Measurement, Workload, CULLINGS};
 use kdbeam::report::{csv, LinePlot, Series};
-use kdbeam::trace::{Culling, Frustum, Planes};
 use kdbeam::{BuildParams, Intersector, Isa, KdTree, PacketShape, Tracer};
 
 use super::bench::print_json_or;
@@ -35,16 +34,6 @@ pub(crate) struct AccuracyArgs {
     #[arg(long)]
     out: Option<PathBuf>,
 }
-
-/// The culling modes measured: none, the vertex planes, the full frustum maskless and masked,
-/// and the default.
-const CULLINGS: [Culling; 5] = [
-    Culling::NONE,
-    Culling::planes(Planes::Four, false),
-    Culling::FULL,
-    Culling::FULL.with_frustum(Frustum::Masked),
-    Culling::AUTO,
-];
 
 #[derive(serde::Serialize)]
 struct Row {
@@ -133,11 +122,9 @@ pub(crate) fn run(args: AccuracyArgs) -> kdbeam::Result<()> {
     let isas: Vec<Isa> = if args.isa.is_empty() {
         Isa::available().collect()
     } else {
-        args.isa.clone()
+        let checked = args.isa.iter().map(|&isa| kdbeam::trace::check_isa(isa));
+        checked.collect::<kdbeam::Result<_>>()?
     };
-    for &isa in &isas {
-        kdbeam::trace::check_isa(isa)?;
-    }
     let scenes = if args.scenes.is_empty() {
         default_scenes()
     } else {
