@@ -89,6 +89,20 @@ pub fn reference_hits(tree: &KdTree, rays: &[Ray]) -> Vec<Option<ReferenceHit>> 
 /// `null`). Rays starting on a surface count as disagreements when the sides differ: there
 /// hit/miss is decided by rounding alone.
 ///
+/// ```
+/// use kdbeam::report::accuracy::{compare, reference_hits};
+/// use kdbeam::{BuildParams, KdTree, Mesh, Ray, Tracer, Vec3};
+/// let mesh = Mesh::from_indexed(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]], &[0, 1, 2])?;
+/// let tree = KdTree::build(&mesh, &BuildParams::default())?;
+/// let rays = [0.1f32, 0.3, 0.9].map(|x| Ray::new(Vec3::new(x, 0.2, 0.0), Vec3::Z));
+/// let reference = reference_hits(&tree, &rays);
+/// let hits = rays.map(|r| Tracer::new(&tree).intersect(&r));
+/// let acc = compare(&mesh, &rays, &reference, &hits)?;
+/// assert_eq!((acc.both_hit, acc.disagreements, acc.wrong_ids), (2, 0, 0));
+/// assert_eq!(acc.t_rel_err_max, 0.0); // t = 1 is exact in f32
+/// # Ok::<(), kdbeam::Error>(())
+/// ```
+///
 /// # Errors
 /// [`Error::InvalidParameter`] when the three slices differ in length.
 pub fn compare(
