@@ -1,5 +1,6 @@
 //! Tables and plots for the benchmarks and figures.
 
+pub mod accuracy;
 mod plot;
 
 pub use plot::{LinePlot, Series};

@@ -37,6 +37,9 @@ enum Command {
     /// Cycles per ray–triangle test on Kensler–Shirley synthetic data (one leaf, no tree), per
     /// culling setting next to the unculled baseline (Reshetov's Figs. 3–5).
     Synthetic(synthetic::SyntheticArgs),
+    /// Run time against error: every intersector × ISA × culling mode against the f64 oracle
+    /// (hit/miss disagreements, wrong triangle ids, edge ties, relative error of t).
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -254,6 +257,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
     })
 }
 
+mod accuracy;
 mod bench;
 mod build_bench;
 mod sweep;
@@ -266,6 +270,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => sweep::run(args),
         Command::BuildBench(args) => build_bench::run(args),
         Command::Synthetic(args) => synthetic::run(args),
+        Command::Accuracy(args) => accuracy::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
