@@ -84,7 +84,8 @@ impl BuildParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LeafRecord {
-    /// Index of the leaf's first triangle in [`KdTree::triangles`] (and `ks_triangles`, `ids`).
+    /// Index of the leaf's first triangle in the tree's leaf-ordered triangle arrays (see
+    /// [`KdTree::leaf_triangles`]).
     pub first: u32,
     /// Number of triangles (0 for an empty leaf).
     pub count: u32,
