@@ -49,21 +49,27 @@ pub(crate) struct BenchArgs {
 }
 
 #[derive(serde::Serialize)]
-struct Row {
-    scene: String,
+pub(crate) struct Row {
+    pub(crate) scene: String,
     rays: &'static str,
-    isa: String,
-    packet: usize,
+    pub(crate) isa: String,
+    pub(crate) packet: usize,
     intersector: &'static str,
-    culling: String,
+    pub(crate) culling: String,
     threads: usize,
-    mrays_per_s: f64,
+    pub(crate) mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
     speedup_vs_scalar: f64,
 }
 
 pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
+    rows(&args).map(|_| ())
+}
+
+/// Measures every configuration of `args`, printing each row as it is measured.
+pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
+    let mut all = Vec::new();
     if args.embree && !cfg!(feature = "embree") {
         return Err(kdbeam::Error::InvalidParameter {
             name: "embree",
@@ -151,6 +157,7 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                         speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                     };
                     print_row(&row, args.json);
+                    all.push(row);
                 }
             }
         }
@@ -179,10 +186,11 @@ pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                 };
                 print_row(&row, args.json);
+                all.push(row);
             }
         }
     }
-    Ok(())
+    Ok(all)
 }
 
 /// The scenes to load: those named, or the default scene (`None`) when none is.

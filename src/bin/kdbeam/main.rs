@@ -40,6 +40,9 @@ enum Command {
     /// Run time against error: every intersector × ISA × culling mode against the f64 oracle
     /// (hit/miss disagreements, wrong triangle ids, edge ties, relative error of t).
     Accuracy(accuracy::AccuracyArgs),
+    /// Reshetov's Figs. 3, 4, 5 (synthetic) and 7 (tree size), and the Embree comparison, as
+    /// SVG + CSV with a markdown summary.
+    Figures(figures::FiguresArgs),
 }
 
 /// Options shared by every command that builds a tree and traces.
@@ -260,6 +263,7 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
 mod accuracy;
 mod bench;
 mod build_bench;
+mod figures;
 mod sweep;
 mod synthetic;
 
@@ -271,6 +275,7 @@ fn main() -> ExitCode {
         Command::BuildBench(args) => build_bench::run(args),
         Command::Synthetic(args) => synthetic::run(args),
         Command::Accuracy(args) => accuracy::run(args),
+        Command::Figures(args) => figures::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

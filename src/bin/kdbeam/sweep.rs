@@ -46,7 +46,7 @@ pub(crate) struct SweepArgs {
 }
 
 #[derive(serde::Serialize)]
-struct Point {
+pub(crate) struct Point {
     scene: String,
     ci_over_ct: f32,
     culling: String,
@@ -58,6 +58,11 @@ struct Point {
 }
 
 pub(crate) fn run(args: SweepArgs) -> kdbeam::Result<()> {
+    points(&args).map(|_| ())
+}
+
+/// Measures every point of the sweep (printing each), and writes the files `args.out` asks for.
+pub(crate) fn points(args: &SweepArgs) -> kdbeam::Result<Vec<Point>> {
     let pool = thread_pool(Some(args.threads))?;
     let (name, mesh) = load_scene(args.scene.as_deref())?;
     let cullings = [
@@ -133,12 +138,18 @@ pub(crate) fn run(args: SweepArgs) -> kdbeam::Result<()> {
         }
     }
     if let Some(dir) = &args.out {
-        write_files(dir, &name, &points)?;
+        write_files(dir, "sweep", &name, &points)?;
     }
-    Ok(())
+    Ok(points)
 }
 
-fn write_files(dir: &std::path::Path, scene: &str, points: &[Point]) -> kdbeam::Result<()> {
+/// Writes `STEM.csv` and `STEM.svg` (Mrays/s against nodes per triangle, one line per culling).
+pub(crate) fn write_files(
+    dir: &std::path::Path,
+    stem: &str,
+    scene: &str,
+    points: &[Point],
+) -> kdbeam::Result<()> {
     let io = |path: PathBuf| move |source| kdbeam::Error::Io { path, source };
     std::fs::create_dir_all(dir).map_err(io(dir.to_path_buf()))?;
     let rows: Vec<Vec<String>> = points
@@ -166,7 +177,7 @@ fn write_files(dir: &std::path::Path, scene: &str, points: &[Point]) -> kdbeam::
         "nodes_per_tri",
         "mean_leaf_size",
     ];
-    let csv_path = dir.join("sweep.csv");
+    let csv_path = dir.join(format!("{stem}.csv"));
     std::fs::write(&csv_path, csv(&header, &rows)).map_err(io(csv_path.clone()))?;
     let mut series: Vec<Series> = Vec::new();
     for p in points {
@@ -185,7 +196,7 @@ fn write_files(dir: &std::path::Path, scene: &str, points: &[Point]) -> kdbeam::
         log_x: true,
         series,
     };
-    let svg_path = dir.join("sweep.svg");
+    let svg_path = dir.join(format!("{stem}.svg"));
     std::fs::write(&svg_path, plot.to_svg()).map_err(io(svg_path.clone()))?;
     println!(
         "wrote      {} and {}",
