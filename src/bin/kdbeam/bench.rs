@@ -132,7 +132,7 @@ pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
                         .with_isa(isa)?
                         .with_culling(culling);
                     let (mrays, tests) =
-                        pool.install(|| measure(&args, base, packet, &rays, &camera))?;
+                        pool.install(|| measure(args, base, packet, &rays, &camera))?;
                     if packet == 1 {
                         scalar = Some(mrays);
                     }
@@ -171,8 +171,7 @@ pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
             };
             let scene = pool.install(|| EmbreeScene::with_options(&mesh, &options))?;
             for width in kdbeam::embree::QUERY_WIDTHS {
-                let mrays =
-                    pool.install(|| measure_embree(&args, &scene, width, &rays, &camera))?;
+                let mrays = pool.install(|| measure_embree(args, &scene, width, &rays, &camera))?;
                 let row = Row {
                     scene: name.clone(),
                     rays: args.rays.name(),

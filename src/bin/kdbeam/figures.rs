@@ -35,6 +35,15 @@ pub(crate) struct FiguresArgs {
 /// 6-plane + aperture.
 type Curve = Vec<(f64, [f64; 3])>;
 
+/// A synthetic figure: file stem, title, x label, log x axis, and the parameters of each point.
+struct Figure {
+    stem: &'static str,
+    title: &'static str,
+    x_label: &'static str,
+    log_x: bool,
+    points: Vec<(f64, SyntheticParams)>,
+}
+
 const CULLINGS: [(&str, Culling); 3] = [
     ("Kensler–Shirley", Culling::NONE),
     ("4-plane", Culling::planes(Planes::Four, false)),
@@ -63,13 +72,13 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
         if args.quick { " --quick" } else { "" }
     );
 
-    let figs: [(&str, &str, &str, bool, Vec<(f64, SyntheticParams)>); 3] = [
-        (
-            "fig3",
-            "Fig. 3: cycles per test against leaf edge / triangle edge (8×8, jitter 4%)",
-            "leaf edge / triangle edge",
-            false,
-            (1..=10)
+    let figs = [
+        Figure {
+            stem: "fig3",
+            title: "Fig. 3: cycles per test against leaf edge / triangle edge (8×8, jitter 4%)",
+            x_label: "leaf edge / triangle edge",
+            log_x: false,
+            points: (1..=10)
                 .map(|r| {
                     (
                         f64::from(r),
@@ -80,13 +89,13 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
                     )
                 })
                 .collect(),
-        ),
-        (
-            "fig4",
-            "Fig. 4: cycles per test against packet size n×n (ratio 4, jitter 4%)",
-            "rays per packet side n",
-            true,
-            [2usize, 4, 8, 16]
+        },
+        Figure {
+            stem: "fig4",
+            title: "Fig. 4: cycles per test against packet size n×n (ratio 4, jitter 4%)",
+            x_label: "rays per packet side n",
+            log_x: true,
+            points: [2usize, 4, 8, 16]
                 .iter()
                 .map(|&n| {
                     (
@@ -98,19 +107,27 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
                     )
                 })
                 .collect(),
-        ),
-        (
-            "fig5",
-            "Fig. 5: cycles per test against packet cross-section / cell edge (ratio 4, 8×8)",
-            "jitter (cross-section / cell edge)",
-            true,
-            [0.01f32, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0]
+        },
+        Figure {
+            stem: "fig5",
+            title:
+                "Fig. 5: cycles per test against packet cross-section / cell edge (ratio 4, 8×8)",
+            x_label: "jitter (cross-section / cell edge)",
+            log_x: true,
+            points: [0.01f32, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0]
                 .iter()
                 .map(|&j| (f64::from(j), SyntheticParams { jitter: j, ..base }))
                 .collect(),
-        ),
+        },
     ];
-    for (stem, title, x_label, log_x, points) in figs {
+    for Figure {
+        stem,
+        title,
+        x_label,
+        log_x,
+        points,
+    } in figs
+    {
         let curve = synthetic_curve(isa, reps, &points)?;
         write_curve(&args.out, stem, title, x_label, log_x, &curve)?;
         let _ = writeln!(
