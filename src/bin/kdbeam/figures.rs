@@ -114,9 +114,17 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
                 "Fig. 5: cycles per test against packet cross-section / cell edge (ratio 4, 8×8)",
             x_label: "jitter (cross-section / cell edge)",
             log_x: true,
-            points: [0.01f32, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0]
+            points: [0.01f64, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0]
                 .iter()
-                .map(|&j| (f64::from(j), SyntheticParams { jitter: j, ..base }))
+                .map(|&j| {
+                    (
+                        j,
+                        SyntheticParams {
+                            jitter: j as f32,
+                            ..base
+                        },
+                    )
+                })
                 .collect(),
         },
     ];
