@@ -97,7 +97,9 @@ fn check_scene(name: &str, mesh: &Mesh) {
                         // t = (n·(p0 − o)) / (n·d) loses accuracy as the ray grazes the plane:
                         // the tolerance grows as 1 / cos θ (θ between ray and normal).
                         let tri = mesh.triangle(w.triangle as usize);
-                        let n = (tri.v1 - tri.v0).as_dvec3().cross((tri.v2 - tri.v0).as_dvec3());
+                        let n = (tri.v1 - tri.v0)
+                            .as_dvec3()
+                            .cross((tri.v2 - tri.v0).as_dvec3());
                         let d = r.dir.as_dvec3();
                         let cos = (n.dot(d).abs() / (n.length() * d.length())).max(1e-3);
                         let tol = (1e-4 * w.t + 1e-6 * diag) / cos;
