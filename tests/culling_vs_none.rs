@@ -16,23 +16,11 @@ mod common;
 use kdbeam::render::Camera;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{Culling, Frustum, PacketCounters};
+use kdbeam::trace::{Culling, PacketCounters};
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
     Tracer, Vec3,
 };
-
-fn cullings() -> Vec<Culling> {
-    let mut out: Vec<Culling> = Culling::PRESETS.iter().skip(1).map(|(_, c)| *c).collect();
-    out.push(Culling::FULL.with_frustum(Frustum::Masked));
-    out.push(
-        Culling::FULL
-            .with_frustum(Frustum::Masked)
-            .with_aperture_first(false),
-    );
-    out.push(Culling::FULL.with_aperture_first(false));
-    out
-}
 
 /// Packets of 64 rays: `(rays, active mask)`.
 fn packets(mesh: &Mesh, count: usize, seed: u64) -> Vec<(Vec<Ray>, u64)> {
@@ -132,7 +120,7 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
             .collect();
         for isa in Isa::available() {
             for shape in PacketShape::ALL {
-                for culling in cullings() {
+                for culling in Culling::VARIANTS {
                     let tracer = scalar
                         .with_isa(isa)
                         .unwrap()

@@ -98,6 +98,21 @@ impl Culling {
         ("auto", Culling::AUTO),
     ];
 
+    /// Every culling setting worth telling apart (culling on): the presets, the masked frustum
+    /// and the distance-first order. The differential tests and the fuzzer run each of them.
+    pub const VARIANTS: [Culling; 8] = [
+        Culling::planes(Planes::Four, false),
+        Culling::planes(Planes::Six, false),
+        Culling::planes(Planes::Four, true),
+        Culling::FULL,
+        Culling::AUTO,
+        Culling::FULL.with_frustum(Frustum::Masked),
+        Culling::FULL
+            .with_frustum(Frustum::Masked)
+            .with_aperture_first(false),
+        Culling::FULL.with_aperture_first(false),
+    ];
+
     /// Fixed planes and aperture on every leaf visit, maskless.
     pub const fn planes(planes: Planes, aperture: bool) -> Culling {
         Culling {

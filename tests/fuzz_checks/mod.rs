@@ -10,7 +10,7 @@ use std::io::Write;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use kdbeam::trace::{Culling, Frustum};
+use kdbeam::trace::Culling;
 use kdbeam::{
     BuildParams, Error, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray,
     RayPacket, Tracer, Vec3,
@@ -193,19 +193,6 @@ pub fn trace_packets(data: &[u8]) {
     packets_equal_scalar(&tree, &rays, active, Culling::NONE);
 }
 
-/// The culling settings the `culling` target chooses from: every preset, the masked frustum
-/// and the distance-first order.
-fn culling_settings() -> Vec<Culling> {
-    let mut out: Vec<Culling> = Culling::PRESETS.iter().skip(1).map(|(_, c)| *c).collect();
-    out.push(Culling::FULL.with_frustum(Frustum::Masked));
-    out.push(
-        Culling::FULL
-            .with_frustum(Frustum::Masked)
-            .with_aperture_first(false),
-    );
-    out
-}
-
 /// The `culling` target: the scene and rays of [`trace_packets`], traced with the culling
 /// setting the input's last byte chooses.
 ///
@@ -214,7 +201,7 @@ fn culling_settings() -> Vec<Culling> {
 pub fn culling(data: &[u8]) {
     let (mesh, params, rays, active) = decode_scene(data);
     let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
-    let settings = culling_settings();
+    let settings = Culling::VARIANTS;
     let choice = settings[usize::from(data.last().copied().unwrap_or(0)) % settings.len()];
     packets_equal_scalar(&tree, &rays, active, choice);
 }
