@@ -125,20 +125,41 @@ impl Rng {
         }
     }
 
-    /// A unit vector uniformly distributed on the sphere.
-    ///
-    /// Marsaglia's method (Ann. Math. Stat. 43, 1972): draw (x₁, x₂) uniform in the square
-    /// [−1, 1)² until s = x₁² + x₂² < 1, then return (2x₁√(1−s), 2x₂√(1−s), 1 − 2s). Each try is
-    /// accepted with probability π/4; only `+`, `×` and `√` are used, so the result is the same on
-    /// every platform. Its length is 1 within a few ulps (rounding of the formula).
+    /// A unit vector uniformly distributed on the sphere: [`Rng::unit_vector_in_cap`] with
+    /// `min_z = −1`.
     pub fn unit_vector(&mut self) -> Vec3 {
+        self.unit_vector_in_cap(-1.0)
+    }
+
+    /// A unit vector uniformly distributed on the spherical cap `z ≥ min_z`.
+    ///
+    /// Marsaglia's method (Ann. Math. Stat. 43, 1972) restricted to the cap: draw (x₁, x₂)
+    /// uniform in the square [−r, r)², r = √((1 − min_z)/2), until s = x₁² + x₂² < r², then
+    /// return (2x₁√(1−s), 2x₂√(1−s), 1 − 2s). As s is uniform on [0, r²), z = 1 − 2s is
+    /// uniform on (min_z, 1], which by Archimedes' hat-box theorem is the uniform law on the
+    /// cap. Each try is accepted with probability π/4; only `+`, `×` and `√` are used, so the
+    /// result is the same on every platform. Its length is 1 within a few ulps.
+    ///
+    /// `min_z` is clamped to [−1, 1]: −1 gives the whole sphere, 1 always `+z`; NaN is treated
+    /// as −1.
+    pub fn unit_vector_in_cap(&mut self, min_z: f32) -> Vec3 {
+        let min_z = if min_z.is_nan() {
+            -1.0
+        } else {
+            min_z.clamp(-1.0, 1.0)
+        };
+        let r2 = 0.5 * (1.0 - min_z);
+        if r2 == 0.0 {
+            return Vec3::Z;
+        }
+        let r = r2.sqrt();
         loop {
-            let x1 = self.range(-1.0, 1.0);
-            let x2 = self.range(-1.0, 1.0);
+            let x1 = self.range(-r, r);
+            let x2 = self.range(-r, r);
             let s = x1 * x1 + x2 * x2;
-            if s < 1.0 {
-                let r = 2.0 * (1.0 - s).sqrt();
-                return Vec3::new(x1 * r, x2 * r, 1.0 - 2.0 * s);
+            if s < r2 {
+                let k = 2.0 * (1.0 - s).sqrt();
+                return Vec3::new(x1 * k, x2 * k, 1.0 - 2.0 * s);
             }
         }
     }
@@ -251,5 +272,38 @@ mod tests {
         // is 0.0018; 0.01 is > 5σ.
         let mean = sum / f64::from(n);
         assert!(mean.abs().max_element() < 0.01, "{mean}");
+    }
+
+    #[test]
+    fn cap_vectors_stay_in_the_cap_with_uniform_z() {
+        let mut r = Rng::new(5);
+        let n = 100_000;
+        for min_z in [0.5f32, 0.0, -0.75] {
+            let mut sum_z = 0.0f64;
+            let mut sum_xy = glam::DVec2::ZERO;
+            for _ in 0..n {
+                let v = r.unit_vector_in_cap(min_z);
+                assert!((v.length() - 1.0).abs() < 1e-6, "{v}");
+                assert!(v.z >= min_z, "{v} below {min_z}");
+                sum_z += f64::from(v.z);
+                sum_xy += v.truncate().as_dvec2();
+            }
+            // z is uniform on [min_z, 1]: mean (1 + min_z)/2, σ of one draw ≤ 2/√12 = 0.58,
+            // σ of the mean over 1e5 draws ≤ 0.0019; 0.01 is > 5σ. x and y have mean 0 by
+            // symmetry (σ of one draw ≤ 1).
+            let mean_z = sum_z / f64::from(n);
+            let want = 0.5 * (1.0 + f64::from(min_z));
+            assert!((mean_z - want).abs() < 0.01, "{min_z}: {mean_z} vs {want}");
+            let mean_xy = sum_xy / f64::from(n);
+            assert!(mean_xy.abs().max_element() < 0.02, "{mean_xy}");
+        }
+        assert_eq!(r.unit_vector_in_cap(1.0), Vec3::Z);
+        assert_eq!(r.unit_vector_in_cap(7.0), Vec3::Z);
+        // The whole sphere draws exactly what `unit_vector` draws.
+        let (mut a, mut b) = (Rng::new(6), Rng::new(6));
+        for _ in 0..100 {
+            assert_eq!(a.unit_vector(), b.unit_vector_in_cap(-1.0));
+            assert_eq!(a.unit_vector(), b.unit_vector_in_cap(f32::NAN));
+        }
     }
 }

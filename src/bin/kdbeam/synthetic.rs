@@ -31,6 +31,10 @@ pub(crate) struct SyntheticArgs {
     /// Packets traced per repetition.
     #[arg(long, default_value_t = SyntheticParams::default().packets)]
     packets: usize,
+    /// Largest angle between a triangle's normal and the packets' mean direction, in degrees:
+    /// 0 faces every triangle to the packets, 90 orients them uniformly.
+    #[arg(long, default_value_t = SyntheticParams::default().normal_cone)]
+    normal_cone: f32,
     /// Seed of the triangles and packets.
     #[arg(long, default_value_t = SyntheticParams::default().seed)]
     seed: u64,
@@ -67,9 +71,11 @@ pub(crate) fn run(args: SyntheticArgs) -> kdbeam::Result<()> {
         triangles: args.triangles,
         packets: args.packets,
         seed: args.seed,
+        normal_cone: args.normal_cone,
         ..SyntheticParams::default()
     };
     let (tmax, rate) = synthetic::calibrate_tmax(&base, 0.25)?;
+    let base = SyntheticParams { tmax, ..base };
     eprintln!(
         "tmax {tmax}: {:.1}% of ray–triangle pairs intersect at ratio 1 (RT06 aims at 25%); \
          cycles are TSC reference cycles",
