@@ -100,6 +100,22 @@ impl RayPacket {
         p
     }
 
+    /// Makes the packet `len` rays long in place, for callers that write the public arrays
+    /// directly (no 2 KiB packet built and moved per call, as [`RayPacket::from_rays`] does).
+    ///
+    /// Lanes below `len` keep their contents, for the caller to overwrite; lanes from `len` on
+    /// are zeroed, as the layout requires. Panics if `len > 64`.
+    pub fn set_len(&mut self, len: usize) {
+        assert!(len <= MAX_PACKET_RAYS, "a packet holds at most 64 rays");
+        for a in 0..3 {
+            self.org[a][len..].fill(0.0);
+            self.dir[a][len..].fill(0.0);
+        }
+        self.tmin[len..].fill(0.0);
+        self.tmax[len..].fill(0.0);
+        self.len = len;
+    }
+
     /// Number of rays.
     #[inline]
     pub fn len(&self) -> usize {

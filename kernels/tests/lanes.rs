@@ -111,6 +111,21 @@ impl LaneTask for OpsVsScalar {
                 }
             }
 
+            // Sign bits as the floats carry them: −0.0, −inf and negative NaNs included.
+            let b_signs: Vec<f32> = b.iter().map(|&x| if x.is_nan() { -x } else { x }).collect();
+            for values in [&a, &c, &b_signs] {
+                let want = (0..w).fold(0, |bits, i| {
+                    bits | (values[i].is_sign_negative() as u32) << i
+                });
+                let got = l.load(values).sign_bits();
+                if got != want {
+                    failures.push(format!(
+                        "{}: sign_bits({values:?}) = {got:b} want {want:b}",
+                        L::ISA
+                    ));
+                }
+            }
+
             // Reductions ignore NaN lanes; which zero comes out of a ±0 tie is unspecified, so
             // they are compared with `==` (and +-inf for all-NaN vectors).
             let non_nan = a.iter().copied().filter(|x| !x.is_nan());

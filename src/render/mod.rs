@@ -79,18 +79,13 @@ pub fn trace_primary(
     let mut hits = vec![(Hit::NONE, 0u32); w * h];
     let band = |(band, out): (usize, &mut [(Hit, u32)])| {
         let mut counters = PacketCounters::default();
-        let mut rays = Vec::with_capacity(tw * th);
+        let mut p = RayPacket::from_rays(&[]);
         let rows = out.len() / w;
         let mut hp = HitPacket::default();
         for tx in (0..w).step_by(tw) {
-            rays.clear();
             let cols = tw.min(w - tx);
-            for dy in 0..rows {
-                for dx in 0..cols {
-                    rays.push(camera.ray((tx + dx) as u32, (band * th + dy) as u32));
-                }
-            }
-            let p = RayPacket::from_rays(&rays);
+            let (x0, y0) = (tx as u32, (band * th) as u32);
+            camera.fill_packet(x0, y0, cols as u32, rows as u32, &mut p);
             counters.add(&tracer.intersect_packet(&p, p.full_mask(), &mut hp));
             for dy in 0..rows {
                 for dx in 0..cols {

@@ -15,7 +15,7 @@ use kdbeam_kernels::intersect::{LaneHits, LaneRays};
 use kdbeam_kernels::{slab, Aabb, HitPacket, LaneF32, LaneMask, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use super::culling::Culling;
-use super::single::{is_traceable, root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
+use super::single::{root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
 use crate::kdtree::{KdTree, LeafTriangles};
 
 const N: usize = MAX_PACKET_RAYS;
@@ -28,6 +28,8 @@ pub(crate) type Column = [f32; N];
 pub struct PacketCounters {
     /// Packets (after the split by octant) traced.
     pub packets: u64,
+    /// Inner nodes entered by a packet.
+    pub inner_visits: u64,
     /// Non-empty leaves entered by a packet.
     pub leaf_visits: u64,
     /// Ray–leaf visits: active rays summed over leaf visits.
@@ -54,6 +56,7 @@ impl Default for PacketCounters {
     fn default() -> Self {
         PacketCounters {
             packets: 0,
+            inner_visits: 0,
             leaf_visits: 0,
             ray_leaf_visits: 0,
             potential_tests: 0,
@@ -72,6 +75,7 @@ impl PacketCounters {
     /// Adds `o` to `self`.
     pub fn add(&mut self, o: &PacketCounters) {
         self.packets += o.packets;
+        self.inner_visits += o.inner_visits;
         self.leaf_visits += o.leaf_visits;
         self.ray_leaf_visits += o.ray_leaf_visits;
         self.potential_tests += o.potential_tests;
@@ -165,26 +169,51 @@ pub(crate) trait PacketVisitor<L: Lanes> {
     fn best_t(&self) -> &Column;
 }
 
-/// Rays of `active` that can be traced (see [`is_traceable`]).
+/// Rays of `active` that can be traced (see [`is_traceable`](super::single::is_traceable)), a group of lanes at a time:
+/// finite origin and direction (`|x| < inf`, false for NaN), a direction that is not zero on
+/// every axis, and `tmin <= tmax` (false when either is NaN).
 #[inline(always)]
-pub(crate) fn traceable_mask(p: &RayPacket, active: u64) -> u64 {
-    let mut m = 0u64;
-    for i in 0..p.len() {
-        if active >> i & 1 != 0 && is_traceable(&p.ray(i)) {
-            m |= 1 << i;
+pub(crate) fn traceable_mask<L: Lanes>(l: L, p: &RayPacket, active: u64) -> u64 {
+    let (inf, zero) = (l.splat(f32::INFINITY), l.splat(0.0));
+    let mut traceable = 0u64;
+    for g in 0..group_count::<L>(p.len()) {
+        let b = g * L::WIDTH;
+        let rays = lane_rays(l, p, g);
+        // No closures here: inside the ISA's `#[target_feature]` entry they are not inlined.
+        let mut finite = l.load(&p.tmin[b..]).le(l.load(&p.tmax[b..]));
+        let mut zero_dir = !l.mask_from_bits(0);
+        for a in 0..3 {
+            finite = finite & rays.org[a].abs().lt(inf) & rays.dir[a].abs().lt(inf);
+            zero_dir = zero_dir & rays.dir[a].eq(zero);
         }
+        traceable |= u64::from(finite.and_not(zero_dir).bits()) << b;
     }
-    m
+    traceable & active & p.full_mask()
 }
 
-/// The rays of `mask` sorted by the sign bits of their direction: one mask per octant.
+/// The rays of `mask` sorted by the sign bits of their direction: one mask per octant, bit `a`
+/// of the octant set for a sign bit on axis `a` (`-0.0` counts as negative, as its reciprocal
+/// is `-inf`).
 #[inline(always)]
-pub(crate) fn octant_masks(p: &RayPacket, mask: u64) -> [u64; 8] {
+pub(crate) fn octant_masks<L: Lanes>(l: L, p: &RayPacket, mask: u64) -> [u64; 8] {
     let mut octants = [0u64; 8];
-    for i in 0..p.len() {
-        if mask >> i & 1 != 0 {
-            let o = (0..3).fold(0, |o, a| o | (p.dir[a][i].is_sign_negative() as usize) << a);
-            octants[o] |= 1 << i;
+    for g in 0..group_count::<L>(p.len()) {
+        let bits = group_bits::<L>(mask, g);
+        if bits == 0 {
+            continue;
+        }
+        let b = g * L::WIDTH;
+        let signs = [
+            l.load(&p.dir[0][b..]).sign_bits(),
+            l.load(&p.dir[1][b..]).sign_bits(),
+            l.load(&p.dir[2][b..]).sign_bits(),
+        ];
+        for (o, octant) in octants.iter_mut().enumerate() {
+            let mut lanes = bits;
+            for (a, &sign) in signs.iter().enumerate() {
+                lanes &= if o >> a & 1 != 0 { sign } else { !sign };
+            }
+            *octant |= u64::from(lanes) << b;
         }
     }
     octants
@@ -273,6 +302,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
         let node = nodes[node_index as usize];
         let mut descended = false;
         if !node.is_leaf() {
+            counters.inner_visits += 1;
             let axis = node.axis();
             let split = l.splat(node.split());
             let eps = l.splat(INTERVAL_EPS);
@@ -581,8 +611,13 @@ pub(crate) struct ClosestHits<'h, T> {
 impl<'h, T> ClosestHits<'h, T> {
     /// Starts `hits` for `p`: no hit, best `t` = each ray's `tmax`.
     pub fn new(hits: &'h mut HitPacket, p: &RayPacket, culling: Culling) -> Self {
-        *hits = HitPacket::default();
+        // In place: a fresh `HitPacket` would be built on the stack and copied in.
+        hits.t.fill(f32::INFINITY);
         hits.t[..p.len()].copy_from_slice(&p.tmax[..p.len()]);
+        hits.u.fill(0.0);
+        hits.v.fill(0.0);
+        hits.triangle.fill(u32::MAX);
+        hits.tests.fill(0);
         ClosestHits {
             hits,
             culling,
@@ -798,7 +833,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>>(
     stack: &mut Stack,
     counters: &mut PacketCounters,
 ) {
-    let octants = octant_masks(p, traceable_mask(p, active));
+    let octants = octant_masks(l, p, traceable_mask(l, p, active));
     for (octant, mask) in octants.into_iter().enumerate() {
         if mask != 0 {
             traverse_octant(l, tree, p, mask, octant, visitor, stack, counters);

@@ -5,6 +5,7 @@
 //! then by direction, so that the packets made of them at least share their near/far order and,
 //! as far as the stream allows, their path through the tree.
 
+use kdbeam_kernels::lanes::Scalar;
 use kdbeam_kernels::{Hit, HitPacket, Ray, RayPacket};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
@@ -128,7 +129,7 @@ fn check_lengths(rays: usize, out: usize) -> Result<()> {
 
 /// Do the traceable rays of `p` all share their direction signs?
 fn is_coherent(p: &RayPacket) -> bool {
-    octant_masks(p, traceable_mask(p, p.full_mask()))
+    octant_masks(Scalar, p, traceable_mask(Scalar, p, p.full_mask()))
         .iter()
         .filter(|&&m| m != 0)
         .count()

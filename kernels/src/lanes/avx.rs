@@ -213,6 +213,10 @@ impl LaneF32 for AvxF32 {
         });
         reduce_max128(halves)
     }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        proven!(_mm256_movemask_ps(self.0)) as u32
+    }
 }
 
 impl BitAnd for AvxMask {

@@ -124,6 +124,9 @@ pub trait LaneF32:
     fn reduce_min(self) -> f32;
     /// Largest lane, ignoring NaN lanes (`-inf` when every lane is NaN).
     fn reduce_max(self) -> f32;
+    /// Bit `i` set when lane `i` has its sign bit set: negative numbers, `-0.0`, `-inf` and
+    /// NaNs with the sign bit (x86 `movemask` on the floats themselves).
+    fn sign_bits(self) -> u32;
 }
 
 /// A vector of booleans, one per lane. `!m` only sets the `WIDTH` real lanes.

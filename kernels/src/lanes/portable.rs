@@ -168,6 +168,10 @@ impl LaneF32 for PortableF32 {
             .into_iter()
             .fold(f32::NEG_INFINITY, |m, x| if x > m { x } else { m })
     }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.0.move_mask() as u32
+    }
 }
 
 impl BitAnd for PortableMask {

@@ -115,6 +115,10 @@ impl LaneF32 for f32 {
             self
         }
     }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        self.is_sign_negative() as u32
+    }
 }
 
 impl LaneMask for bool {

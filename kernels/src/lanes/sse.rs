@@ -227,6 +227,10 @@ impl LaneF32 for SseF32 {
     fn reduce_max(self) -> f32 {
         reduce_max128(self.0)
     }
+    #[inline(always)]
+    fn sign_bits(self) -> u32 {
+        proven!(_mm_movemask_ps(self.0)) as u32
+    }
 }
 
 impl BitAnd for SseMask {

@@ -225,13 +225,16 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
         let c = &frame.counters;
         println!(
             "work       {:.2} leaves/ray, {:.2} tests/ray of {:.2} potential: {:.1}% eliminated, \
-             {:.2} active rays per leaf visit, beams on {:.1}% of leaf visits",
+             {:.2} active rays per leaf visit, beams on {:.1}% of leaf visits; per packet {:.1} \
+             inner nodes, {:.2} non-empty leaves",
             c.ray_leaf_visits as f64 / frame.rays().max(1) as f64,
             frame.tests_per_ray(),
             c.potential_tests as f64 / frame.rays().max(1) as f64,
             c.eliminated_percent(),
             c.ray_leaf_visits as f64 / c.leaf_visits.max(1) as f64,
             100.0 * c.beams as f64 / c.leaf_visits.max(1) as f64,
+            c.inner_visits as f64 / c.packets.max(1) as f64,
+            c.leaf_visits as f64 / c.packets.max(1) as f64,
         );
         if cfg!(feature = "stats") {
             let pct = |x: u64| 100.0 * x as f64 / c.potential_tests.max(1) as f64;
