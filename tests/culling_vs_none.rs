@@ -12,11 +12,13 @@
 //! small `ci_over_ct` too, where leaves are large and culling does the most.
 
 mod common;
+mod fuzz_checks;
 
+use fuzz_checks::wins_by_an_extra_test;
 use kdbeam::render::Camera;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{Culling, PacketCounters};
+use kdbeam::trace::{Culling, Frustum, PacketCounters};
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
     Tracer, Vec3,
@@ -105,6 +107,8 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
     .unwrap();
     let packets = packets(mesh, count, seed);
     let mut visits = 0;
+    let mut wider_ties = 0u64;
+    let mut compared = 0u64;
     for intersector in Intersector::ALL {
         let scalar = Tracer::new(&tree)
             .with_isa(Isa::Scalar)
@@ -139,15 +143,29 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                                 let on = active >> j & 1 != 0;
                                 let w = if on { w } else { Hit::NONE };
                                 let g = hp.hit(j);
+                                let same = g.triangle == w.triangle
+                                    && g.t.to_bits() == w.t.to_bits()
+                                    && (!w.is_hit()
+                                        || (g.u.to_bits(), g.v.to_bits())
+                                            == (w.u.to_bits(), w.v.to_bits()));
+                                let tie = !same
+                                    && culling.frustum == Frustum::Packet
+                                    && wins_by_an_extra_test(mesh, intersector, ray, &g, &w);
+                                wider_ties += u64::from(tie);
+                                compared += 1;
                                 assert!(
-                                    g.triangle == w.triangle
-                                        && g.t.to_bits() == w.t.to_bits()
-                                        && (!w.is_hit() || (g.u.to_bits(), g.v.to_bits()) == (w.u.to_bits(), w.v.to_bits())),
+                                    same || tie,
                                     "{name} ci={ci} {isa} {shape:?} {intersector:?} {culling}: ray {ray:?}: culled {g:?}, unculled {w:?}"
                                 );
-                                assert_eq!(
-                                    occ >> j & 1 != 0,
-                                    on && wo,
+                                // A hit only the packet traversal's tests found occludes too.
+                                let occluded = occ >> j & 1 != 0;
+                                let extra = culling.frustum == Frustum::Packet
+                                    && on
+                                    && !wo
+                                    && g.is_hit()
+                                    && tie;
+                                assert!(
+                                    occluded == (on && wo) || (occluded && extra),
                                     "{name} {isa} {shape:?} {culling}: occluded {:?}",
                                     chunk[j]
                                 );
@@ -162,6 +180,18 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
             }
         }
     }
+    // The packet traversal tests rays in leaves the per-ray traversal does not enter (a superset
+    // of its tests); where a hit sits on an edge or vertex shared with a triangle of such a
+    // leaf, that triangle can win by rounding or by the tie rule. That must stay an edge case,
+    // not a pattern: at most 1% of hits (the flat grid, its packets aimed at vertices shared by
+    // six coplanar triangles: 2,384 and 2,992 of 1,966,080 compared hits).
+    if wider_ties > 0 {
+        eprintln!("{name} ci={ci}: {wider_ties} of {compared} hits won by a test only the packet traversal made");
+    }
+    assert!(
+        wider_ties * 100 <= compared,
+        "{name} ci={ci}: {wider_ties} of {compared} hits differ by a tie"
+    );
     visits
 }
 

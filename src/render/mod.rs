@@ -86,7 +86,7 @@ pub fn trace_primary(
             let cols = tw.min(w - tx);
             let (x0, y0) = (tx as u32, (band * th) as u32);
             camera.fill_packet(x0, y0, cols as u32, rows as u32, &mut p);
-            counters.add(&tracer.intersect_packet(&p, p.full_mask(), &mut hp));
+            tracer.intersect_packet_counted(&p, p.full_mask(), &mut hp, &mut counters);
             for dy in 0..rows {
                 for dx in 0..cols {
                     let j = dy * cols + dx;

@@ -30,6 +30,12 @@ pub enum Frustum {
     Masked,
     /// Masked when fewer than half of the packet's rays are active in the leaf, else maskless.
     Adaptive,
+    /// The whole packet, all the way down: the packet traverses the tree as one interval of
+    /// `t` (no per-ray masks; see `traverse_octant_interval`), and every leaf it enters is
+    /// culled by the beam of all its rays. An inner node costs a few scalar operations instead
+    /// of one split test per group of lanes; the beam does the per-ray work. With no planes it
+    /// is the per-ray traversal.
+    Packet,
 }
 
 /// Culling in the leaves: which planes, the aperture test, which rays, in which order, and
@@ -100,7 +106,7 @@ impl Culling {
 
     /// Every culling setting worth telling apart (culling on): the presets, the masked frustum
     /// and the distance-first order. The differential tests and the fuzzer run each of them.
-    pub const VARIANTS: [Culling; 8] = [
+    pub const VARIANTS: [Culling; 10] = [
         Culling::planes(Planes::Four, false),
         Culling::planes(Planes::Six, false),
         Culling::planes(Planes::Four, true),
@@ -111,6 +117,8 @@ impl Culling {
             .with_frustum(Frustum::Masked)
             .with_aperture_first(false),
         Culling::FULL.with_aperture_first(false),
+        Culling::planes(Planes::Six, false).with_frustum(Frustum::Packet),
+        Culling::FULL.with_frustum(Frustum::Packet),
     ];
 
     /// Fixed planes and aperture on every leaf visit, maskless.
@@ -140,6 +148,11 @@ impl Culling {
         self.planes != Planes::None
     }
 
+    /// Does the packet traverse the tree as one interval ([`Frustum::Packet`] with a beam)?
+    pub(crate) fn interval_traversal(&self) -> bool {
+        self.is_enabled() && self.frustum == Frustum::Packet
+    }
+
     /// The kernel's stages.
     pub(crate) fn stages(&self) -> Stages {
         Stages {
@@ -158,7 +171,7 @@ impl Culling {
         }
         Some(match self.frustum {
             Frustum::Masked => active,
-            Frustum::Maskless => packet,
+            Frustum::Maskless | Frustum::Packet => packet,
             Frustum::Adaptive if 2 * n < packet.count_ones() => active,
             Frustum::Adaptive => packet,
         })
@@ -184,6 +197,7 @@ impl Culling {
             Frustum::Maskless => "maskless",
             Frustum::Masked => "masked",
             Frustum::Adaptive => "adaptive",
+            Frustum::Packet => "packet",
         };
         let order = if self.aperture && self.planes == Planes::Six && !self.aperture_first {
             ",distance-first"
@@ -210,7 +224,7 @@ impl FromStr for Culling {
     type Err = Error;
 
     /// Parses a preset (`none`, `4plane`, `6plane`, `4plane+aperture`, `6plane+aperture`,
-    /// `auto`), optionally followed by `/masked`, `/maskless` or `/adaptive` and
+    /// `auto`), optionally followed by `/masked`, `/maskless`, `/adaptive` or `/packet` and
     /// `,distance-first` or `,aperture-first`: e.g. `6plane+aperture/masked,distance-first`.
     fn from_str(s: &str) -> Result<Culling> {
         let bad = || {
@@ -218,7 +232,8 @@ impl FromStr for Culling {
             name: "culling",
             message: format!(
                 "expected none, 4plane, 6plane, 4plane+aperture, 6plane+aperture or auto, \
-                 optionally /masked|/maskless|/adaptive and ,distance-first|,aperture-first; got {s:?}"
+                 optionally /masked|/maskless|/adaptive|/packet and ,distance-first|,aperture-first; \
+                 got {s:?}"
             ),
         }
         };
@@ -241,6 +256,7 @@ impl FromStr for Culling {
             Some("masked") => c.frustum = Frustum::Masked,
             Some("maskless") => c.frustum = Frustum::Maskless,
             Some("adaptive") => c.frustum = Frustum::Adaptive,
+            Some("packet") => c.frustum = Frustum::Packet,
             Some(_) => return Err(bad()),
         }
         match order {
@@ -268,6 +284,11 @@ mod tests {
                 assert_eq!(parsed, masked, "{}", masked.name());
             }
         }
+        let c: Culling = "6plane/packet".parse().unwrap();
+        assert!(c.interval_traversal() && c.name() == "6plane/packet");
+        assert!(!Culling::NONE
+            .with_frustum(Frustum::Packet)
+            .interval_traversal());
         let c: Culling = "6plane+aperture/masked,distance-first".parse().unwrap();
         assert_eq!((c.frustum, c.aperture_first), (Frustum::Masked, false));
         assert_eq!(c.name().parse::<Culling>().unwrap(), c);

@@ -11,6 +11,8 @@ pub mod reference;
 mod single;
 mod stream;
 
+use std::marker::PhantomData;
+
 use kdbeam_kernels::intersect::watertight::WatertightRay;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
@@ -225,114 +227,170 @@ impl<'t> Tracer<'t> {
         hits: &mut HitPacket,
     ) -> PacketCounters {
         let mut counters = PacketCounters::default();
+        self.intersect_packet_counted(packet, active, hits, &mut counters);
+        counters
+    }
+
+    /// [`Tracer::intersect_packet`], adding its work to `counters`: for callers that trace
+    /// many packets and sum their counters (no counters built and copied per packet).
+    ///
+    /// ```
+    /// use kdbeam::{trace::PacketCounters, BuildParams, HitPacket, KdTree, Mesh, Ray, RayPacket, Tracer, Vec3};
+    /// let mesh = Mesh::from_indexed(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]], &[0, 1, 2])?;
+    /// let tree = KdTree::build(&mesh, &BuildParams::default())?;
+    /// let tracer = Tracer::new(&tree);
+    /// let packet = RayPacket::from_rays(&[Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::Z); 8]);
+    /// let (mut hits, mut counters) = (HitPacket::default(), PacketCounters::default());
+    /// for _ in 0..2 {
+    ///     tracer.intersect_packet_counted(&packet, packet.full_mask(), &mut hits, &mut counters);
+    /// }
+    /// let once = tracer.intersect_packet(&packet, packet.full_mask(), &mut hits);
+    /// assert_eq!(counters.tests, 2 * once.tests);
+    /// assert_eq!((hits.triangle[7], hits.t[7]), (0, 1.0));
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
+    pub fn intersect_packet_counted(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+        hits: &mut HitPacket,
+        counters: &mut PacketCounters,
+    ) {
+        match (self.intersector, self.culling.interval_traversal()) {
+            (Intersector::KenslerShirley, false) => {
+                self.closest_task::<packet::KsLanes, false>(packet, active, hits, counters)
+            }
+            (Intersector::KenslerShirley, true) => {
+                self.closest_task::<packet::KsLanes, true>(packet, active, hits, counters)
+            }
+            (Intersector::Watertight, false) => self
+                .closest_task::<packet::WatertightLaneTest, false>(packet, active, hits, counters),
+            (Intersector::Watertight, true) => self
+                .closest_task::<packet::WatertightLaneTest, true>(packet, active, hits, counters),
+        }
+    }
+
+    /// [`Tracer::intersect_packet_counted`] with the test `F` and the traversal `INTERVAL`:
+    /// one ISA entry point per combination.
+    fn closest_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+        hits: &mut HitPacket,
+        counters: &mut PacketCounters,
+    ) {
         packet::with_stack(|stack| {
-            let counters = &mut counters;
-            let task = ClosestPacket {
+            let task = ClosestPacket::<F, INTERVAL> {
                 tracer: self,
                 packet,
                 active,
                 hits,
                 stack,
                 counters,
+                test: PhantomData,
             };
             dispatch::run_on(self.isa, task)
         });
-        counters
     }
 
     /// The rays of `packet` whose bit is set in `active` that hit anything in `[tmin, tmax]`,
     /// as a bit mask.
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
+        match (self.intersector, self.culling.interval_traversal()) {
+            (Intersector::KenslerShirley, false) => {
+                self.occluded_task::<packet::KsLanes, false>(packet, active)
+            }
+            (Intersector::KenslerShirley, true) => {
+                self.occluded_task::<packet::KsLanes, true>(packet, active)
+            }
+            (Intersector::Watertight, false) => {
+                self.occluded_task::<packet::WatertightLaneTest, false>(packet, active)
+            }
+            (Intersector::Watertight, true) => {
+                self.occluded_task::<packet::WatertightLaneTest, true>(packet, active)
+            }
+        }
+    }
+
+    /// [`Tracer::occluded_packet`] with the test `F` and the traversal `INTERVAL`.
+    fn occluded_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+    ) -> u64 {
         let mut counters = PacketCounters::default();
         packet::with_stack(|stack| {
-            let counters = &mut counters;
-            let task = OccludedPacket {
+            let task = OccludedPacket::<F, INTERVAL> {
                 tracer: self,
                 packet,
                 active,
                 stack,
-                counters,
+                counters: &mut counters,
+                test: PhantomData,
             };
             dispatch::run_on(self.isa, task)
         })
     }
 }
 
-/// [`Tracer::intersect_packet`] as a task generic over the lanes.
-struct ClosestPacket<'a, 't> {
+/// [`Tracer::intersect_packet`] as a task generic over the lanes, with the test `F` and the
+/// traversal `INTERVAL`.
+struct ClosestPacket<'a, 't, F, const INTERVAL: bool> {
     tracer: &'a Tracer<'t>,
     packet: &'a RayPacket,
     active: u64,
     hits: &'a mut HitPacket,
     stack: &'a mut packet::Stack,
     counters: &'a mut PacketCounters,
+    test: PhantomData<F>,
 }
 
-impl LaneTask for ClosestPacket<'_, '_> {
+impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask
+    for ClosestPacket<'_, '_, F, INTERVAL>
+{
     type Output = ();
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) {
-        let tree = self.tracer.tree;
-        match self.tracer.intersector {
-            Intersector::KenslerShirley => packet::closest::<L, packet::KsLanes>(
-                l,
-                tree,
-                self.packet,
-                self.active,
-                self.tracer.culling,
-                self.hits,
-                self.stack,
-                self.counters,
-            ),
-            Intersector::Watertight => packet::closest::<L, packet::WatertightLaneTest>(
-                l,
-                tree,
-                self.packet,
-                self.active,
-                self.tracer.culling,
-                self.hits,
-                self.stack,
-                self.counters,
-            ),
-        }
+        packet::closest::<L, F::For<L>, INTERVAL>(
+            l,
+            self.tracer.tree,
+            self.packet,
+            self.active,
+            self.tracer.culling,
+            self.hits,
+            self.stack,
+            self.counters,
+        )
     }
 }
 
-/// [`Tracer::occluded_packet`] as a task generic over the lanes.
-struct OccludedPacket<'a, 't> {
+/// [`Tracer::occluded_packet`] as a task generic over the lanes, with the test `F` and the
+/// traversal `INTERVAL`.
+struct OccludedPacket<'a, 't, F, const INTERVAL: bool> {
     tracer: &'a Tracer<'t>,
     packet: &'a RayPacket,
     active: u64,
     stack: &'a mut packet::Stack,
     counters: &'a mut PacketCounters,
+    test: PhantomData<F>,
 }
 
-impl LaneTask for OccludedPacket<'_, '_> {
+impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask
+    for OccludedPacket<'_, '_, F, INTERVAL>
+{
     type Output = u64;
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> u64 {
-        let tree = self.tracer.tree;
-        match self.tracer.intersector {
-            Intersector::KenslerShirley => packet::occluded::<L, packet::KsLanes>(
-                l,
-                tree,
-                self.packet,
-                self.active,
-                self.tracer.culling,
-                self.stack,
-                self.counters,
-            ),
-            Intersector::Watertight => packet::occluded::<L, packet::WatertightLaneTest>(
-                l,
-                tree,
-                self.packet,
-                self.active,
-                self.tracer.culling,
-                self.stack,
-                self.counters,
-            ),
-        }
+        packet::occluded::<L, F::For<L>, INTERVAL>(
+            l,
+            self.tracer.tree,
+            self.packet,
+            self.active,
+            self.tracer.culling,
+            self.stack,
+            self.counters,
+        )
     }
 }

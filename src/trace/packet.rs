@@ -15,6 +15,8 @@ use kdbeam_kernels::intersect::{LaneHits, LaneRays};
 use kdbeam_kernels::{slab, Aabb, HitPacket, LaneF32, LaneMask, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use super::culling::Culling;
+#[cfg(doc)]
+use super::culling::Frustum;
 use super::single::{root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
 use crate::kdtree::{KdTree, LeafTriangles};
 
@@ -393,6 +395,269 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     }
 }
 
+/// Traverses `tree` with the rays of `mask` (traceable, sharing the direction signs `octant`)
+/// as one interval of `t`: the whole-packet traversal of [`Frustum::Packet`].
+///
+/// The packet carries one `[t_enter, t_exit]` that contains every ray's own interval in the
+/// cell. At a split `s` on axis `a`, every ray's `t_split = (s − o)·inv` (rounded as
+/// [`split_intervals`] rounds it) lies in `[lo, hi]`, the extremes of the four corner products
+/// of `s − [o_min, o_max]` and `[inv_min, inv_max]`: rounding is monotonic in each operand, so
+/// the extremes over the box are at its corners. Widened by the largest slack any ray gets,
+/// the near child is entered when `t_enter <= hi + slack` (up to `min(t_exit, hi + slack)`)
+/// and the far child when `lo − slack <= t_exit` (from `max(t_enter, lo − slack)`): a superset
+/// of the cells [`traverse_octant`] would visit with any of the rays, with bounds that contain
+/// theirs. A NaN product (an origin in the plane, a direction parallel to it) keeps both
+/// children whole, as the per-ray traversal does. A cell is skipped once its `t_enter` lies
+/// after every ray's best hit. In a leaf, the rays are those whose segment up to their best hit
+/// meets the leaf's tight box ([`rays_in_box`]: one slab test per group of lanes), which may
+/// include rays that do not cross the leaf's cell: such a ray can only find real hits of its
+/// own, and the visitor keeps the closest (ties to the smaller id), so the closest hits do not
+/// change.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
+    l: L,
+    tree: &KdTree,
+    p: &RayPacket,
+    mask: u64,
+    octant: usize,
+    visitor: &mut V,
+    counters: &mut PacketCounters,
+) {
+    let groups = group_count::<L>(p.len());
+    let bounds = root_bounds(tree);
+    let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
+    let (inf, ninf, max) = (
+        l.splat(f32::INFINITY),
+        l.splat(f32::NEG_INFINITY),
+        l.splat(f32::MAX),
+    );
+    // Over the rays inside the root box: ranges of origin and reciprocal direction, the largest
+    // `|o·inv|` per axis, and the packet's interval.
+    let (mut o_lo, mut o_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    let mut err = [0f32; 3];
+    let (mut t_enter, mut t_exit) = (f32::INFINITY, f32::NEG_INFINITY);
+    let mut live_mask = 0u64;
+    let mut inv_columns = [[0f32; N]; 3];
+    for g in 0..groups {
+        let bits = group_bits::<L>(mask, g);
+        if bits == 0 {
+            continue;
+        }
+        let b = g * L::WIDTH;
+        let rays = lane_rays(l, p, g);
+        let inv = [
+            l.splat(1.0) / rays.dir[0],
+            l.splat(1.0) / rays.dir[1],
+            l.splat(1.0) / rays.dir[2],
+        ];
+        for a in 0..3 {
+            l.store(inv[a], &mut inv_columns[a][b..]);
+        }
+        let (hit, tn, tf) = slab::slab_lanes(
+            l,
+            &rays.org,
+            &inv,
+            l.load(&p.tmin[b..]),
+            l.load(&p.tmax[b..]),
+            &bounds,
+        );
+        let live = hit & l.mask_from_bits(bits);
+        if live.none() {
+            continue;
+        }
+        live_mask |= u64::from(live.bits()) << b;
+        t_enter = t_enter.min(L::F32::select(live, tn, inf).reduce_min());
+        t_exit = t_exit.max(L::F32::select(live, tf, ninf).reduce_max());
+        for a in 0..3 {
+            o_lo[a] = o_lo[a].min(L::F32::select(live, rays.org[a], inf).reduce_min());
+            o_hi[a] = o_hi[a].max(L::F32::select(live, rays.org[a], ninf).reduce_max());
+            inv_lo[a] = inv_lo[a].min(L::F32::select(live, inv[a], inf).reduce_min());
+            inv_hi[a] = inv_hi[a].max(L::F32::select(live, inv[a], ninf).reduce_max());
+            let e = (rays.org[a] * inv[a]).abs().min(max);
+            err[a] = err[a].max(L::F32::select(live, e, l.splat(0.0)).reduce_max());
+        }
+    }
+    if live_mask == 0 {
+        return;
+    }
+    counters.packets += 1;
+
+    let nodes = tree.nodes();
+    let mut stack = [(0u32, 0f32, 0f32); STACK_DEPTH];
+    let mut top = 0;
+    let mut node_index = 0u32;
+    let mut done = 0u64;
+    loop {
+        let node = nodes[node_index as usize];
+        if !node.is_leaf() {
+            counters.inner_visits += 1;
+            let a = node.axis();
+            let (lo, hi) = split_range(node.split(), [o_lo[a], o_hi[a]], [inv_lo[a], inv_hi[a]]);
+            let slack =
+                (lo.abs().max(hi.abs()).min(f32::MAX) + err[a]).min(f32::MAX) * INTERVAL_EPS;
+            let (near_exit, far_enter) = ((hi + slack).min(t_exit), (lo - slack).max(t_enter));
+            let (near, far) = if octant >> a & 1 != 0 {
+                (node.above_child(), node_index + 1)
+            } else {
+                (node_index + 1, node.above_child())
+            };
+            let (to_near, to_far) = (t_enter <= near_exit, far_enter <= t_exit);
+            if to_near {
+                if to_far {
+                    stack[top] = (far, far_enter, t_exit);
+                    top += 1;
+                }
+                (node_index, t_exit) = (near, near_exit);
+                continue;
+            }
+            if to_far {
+                (node_index, t_enter) = (far, far_enter);
+                continue;
+            }
+        } else {
+            let leaf = &tree.leaves()[node.leaf_record() as usize];
+            let active = if leaf.count > 0 {
+                rays_in_box(
+                    l,
+                    p,
+                    &inv_columns,
+                    live_mask & !done,
+                    visitor.best_t(),
+                    &leaf.bounds,
+                )
+            } else {
+                0
+            };
+            if active != 0 {
+                counters.leaf_visits += 1;
+                let rays = u64::from(active.count_ones());
+                counters.ray_leaf_visits += rays;
+                counters.potential_tests += rays * u64::from(leaf.count);
+                #[cfg(feature = "stats")]
+                {
+                    counters.active_rays[rays as usize] += 1;
+                }
+                done |= visitor.visit(
+                    l,
+                    p,
+                    LeafVisit {
+                        triangles: tree.leaf_triangles(leaf),
+                        bounds: &leaf.bounds,
+                        mask: active,
+                        packet_mask: live_mask,
+                        scene_bound,
+                    },
+                    counters,
+                );
+            }
+        }
+        // Pop the next cell that some ray still needs: one entered before its best hit.
+        let active = live_mask & !done;
+        let best = visitor.best_t();
+        let mut latest = f32::NEG_INFINITY;
+        for g in 0..groups {
+            let bits = group_bits::<L>(active, g);
+            if bits != 0 {
+                let b = g * L::WIDTH;
+                let t = L::F32::select(l.mask_from_bits(bits), l.load(&best[b..]), ninf);
+                latest = latest.max(t.reduce_max());
+            }
+        }
+        loop {
+            if top == 0 {
+                return;
+            }
+            top -= 1;
+            let (n, enter, exit) = stack[top];
+            if enter <= latest {
+                (node_index, t_enter, t_exit) = (n, enter, exit);
+                break;
+            }
+        }
+    }
+}
+
+/// The rays of `mask` whose segment `[tmin, best]` meets `bounds`: the only ones that can have
+/// a hit in a leaf with that tight box. A hit point lies on a triangle's part clipped to a leaf
+/// the ray crosses, inside that leaf's tight box, so whatever leaf holds it sees the ray.
+///
+/// Rounding is absorbed as in [`split_intervals`]: the box's entry and exit `t`, and the
+/// segment's ends, are each widened by `(|t| + max |o·inv|)·INTERVAL_EPS`, far more than the
+/// few ulps by which `(plane − o)·inv` (which cancels when `|o|` is large) or a reported hit
+/// can be off.
+#[inline(always)]
+fn rays_in_box<L: Lanes>(
+    l: L,
+    p: &RayPacket,
+    inv: &[Column; 3],
+    mask: u64,
+    best: &Column,
+    bounds: &Aabb,
+) -> u64 {
+    let (max, eps) = (l.splat(f32::MAX), l.splat(INTERVAL_EPS));
+    let (ninf, inf) = (l.splat(f32::NEG_INFINITY), l.splat(f32::INFINITY));
+    let mut inside = 0u64;
+    for g in 0..group_count::<L>(p.len()) {
+        let bits = group_bits::<L>(mask, g);
+        if bits == 0 {
+            continue;
+        }
+        let b = g * L::WIDTH;
+        let org = [
+            l.load(&p.org[0][b..]),
+            l.load(&p.org[1][b..]),
+            l.load(&p.org[2][b..]),
+        ];
+        let iv = [
+            l.load(&inv[0][b..]),
+            l.load(&inv[1][b..]),
+            l.load(&inv[2][b..]),
+        ];
+        let err = (org[0] * iv[0])
+            .abs()
+            .max((org[1] * iv[1]).abs())
+            .max((org[2] * iv[2]).abs())
+            .min(max);
+        let (_, near, far) = slab::slab_lanes(l, &org, &iv, ninf, inf, bounds);
+        let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&best[b..]));
+        let lo = (near - t_slack(near, err, max, eps)).max(tmin - t_slack(tmin, err, max, eps));
+        let hi = (far + t_slack(far, err, max, eps)).min(tmax + t_slack(tmax, err, max, eps));
+        inside |= u64::from((lo.le(hi) & l.mask_from_bits(bits)).bits()) << b;
+    }
+    inside
+}
+
+/// The rounding slack of a slab `t` in [`rays_in_box`]: `(|t| + err)·eps`, finite for any `t`.
+#[inline(always)]
+fn t_slack<F: LaneF32>(t: F, err: F, max: F, eps: F) -> F {
+    (t.abs().min(max) + err).min(max) * eps
+}
+
+/// The range of `(split − o)·inv` rounded in f32, over `o` in `[o_min, o_max]` and `inv` in
+/// `[inv_min, inv_max]`: the extremes of the four corner products (f32 subtraction and
+/// multiplication are monotonic in each operand). `(−inf, +inf)` when a product is NaN
+/// (`0·inf`).
+#[inline(always)]
+fn split_range(split: f32, [o_min, o_max]: [f32; 2], [inv_min, inv_max]: [f32; 2]) -> (f32, f32) {
+    let (d_min, d_max) = (split - o_max, split - o_min);
+    let products = [
+        d_min * inv_min,
+        d_min * inv_max,
+        d_max * inv_min,
+        d_max * inv_max,
+    ];
+    let mut range = (f32::INFINITY, f32::NEG_INFINITY);
+    for t in products {
+        if t.is_nan() {
+            return (f32::NEG_INFINITY, f32::INFINITY);
+        }
+        range = (range.0.min(t), range.1.max(t));
+    }
+    range
+}
+
 /// The per-ray intervals of a traversal stack: 32 KiB, kept per thread rather than zeroed on
 /// the machine stack for every packet.
 pub(crate) struct Stack {
@@ -435,6 +700,21 @@ pub(crate) trait LaneTest<L: Lanes> {
 }
 
 /// Kensler–Shirley on packets.
+/// A ray–triangle test at every lane width: the [`LaneTest`] for each `Lanes`, so that a task
+/// can name its test before the ISA is chosen.
+pub(crate) trait LaneTestFamily {
+    /// The test on lanes `L`.
+    type For<L: Lanes>: LaneTest<L>;
+}
+
+impl LaneTestFamily for KsLanes {
+    type For<L: Lanes> = KsLanes;
+}
+
+impl LaneTestFamily for WatertightLaneTest {
+    type For<L: Lanes> = WatertightLaneTest;
+}
+
 pub(crate) struct KsLanes;
 
 impl<L: Lanes> LaneTest<L> for KsLanes {
@@ -822,9 +1102,10 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
 }
 
 /// Traverses `tree` with the traceable rays of `active` in `p`, one sub-packet per octant of
-/// direction signs.
+/// direction signs; ray by ray ([`traverse_octant`]) or, with `INTERVAL`, as one interval
+/// ([`traverse_octant_interval`]).
 #[inline(always)]
-fn traverse_packet<L: Lanes, V: PacketVisitor<L>>(
+fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
     l: L,
     tree: &KdTree,
     p: &RayPacket,
@@ -835,17 +1116,25 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>>(
 ) {
     let octants = octant_masks(l, p, traceable_mask(l, p, active));
     for (octant, mask) in octants.into_iter().enumerate() {
-        if mask != 0 {
+        if mask == 0 {
+            continue;
+        }
+        if INTERVAL {
+            traverse_octant_interval(l, tree, p, mask, octant, visitor, counters);
+        } else {
             traverse_octant(l, tree, p, mask, octant, visitor, stack, counters);
         }
     }
 }
 
 /// Closest hits of the rays of `active` in `p`, written to `hits` (misses and inactive or
-/// untraceable rays get [`kdbeam_kernels::Hit::NONE`]).
+/// untraceable rays get [`kdbeam_kernels::Hit::NONE`]). `INTERVAL` must be
+/// `culling.interval_traversal()`: a type parameter, so that each entry point compiles one
+/// traversal (a single entry holding every variant outgrows LLVM's inlining budget, and the
+/// lane intrinsics then stop being inlined).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
+pub(crate) fn closest<L: Lanes, T: LaneTest<L>, const INTERVAL: bool>(
     l: L,
     tree: &KdTree,
     p: &RayPacket,
@@ -856,14 +1145,15 @@ pub(crate) fn closest<L: Lanes, T: LaneTest<L>>(
     counters: &mut PacketCounters,
 ) {
     let mut visitor = ClosestHits::<T>::new(hits, p, culling);
-    traverse_packet(l, tree, p, active, &mut visitor, stack, counters);
+    traverse_packet::<L, _, INTERVAL>(l, tree, p, active, &mut visitor, stack, counters);
     counters.tests += visitor.tests;
     visitor.finish();
 }
 
-/// The rays of `active` in `p` that hit anything in `[tmin, tmax]`, as a bit mask.
+/// The rays of `active` in `p` that hit anything in `[tmin, tmax]`, as a bit mask (`INTERVAL`
+/// as in [`closest`]).
 #[inline(always)]
-pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
+pub(crate) fn occluded<L: Lanes, T: LaneTest<L>, const INTERVAL: bool>(
     l: L,
     tree: &KdTree,
     p: &RayPacket,
@@ -879,7 +1169,7 @@ pub(crate) fn occluded<L: Lanes, T: LaneTest<L>>(
         occluded: 0,
         test: core::marker::PhantomData,
     };
-    traverse_packet(l, tree, p, active, &mut visitor, stack, counters);
+    traverse_packet::<L, _, INTERVAL>(l, tree, p, active, &mut visitor, stack, counters);
     counters.tests += visitor.tests;
     visitor.occluded
 }

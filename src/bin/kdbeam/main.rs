@@ -54,6 +54,9 @@ struct TreeArgs {
     /// SAH cost ratio of a ray–triangle test to a traversal step.
     #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
     ci_over_ct: f32,
+    /// SAH discount for splits with an empty side, in [0, 1).
+    #[arg(long, default_value_t = BuildParams::default().empty_bonus)]
+    empty_bonus: f32,
 }
 
 #[derive(clap::Args)]
@@ -150,6 +153,7 @@ fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
 fn build_tree(mesh: &Mesh, args: &TreeArgs) -> kdbeam::Result<KdTree> {
     let params = BuildParams {
         ci_over_ct: args.ci_over_ct,
+        empty_bonus: args.empty_bonus,
         ..BuildParams::default()
     };
     with_spinner("building kd-tree", || KdTree::build(mesh, &params))
