@@ -176,8 +176,9 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
     sweep::write_files(&args.out, "fig7", &args.scene, &points)?;
     let _ = writeln!(
         summary,
-        "## Fig. 7: {} primary rays ({size}, one thread): Mrays/s against kd-tree size\n\n![fig7](fig7.svg) ([CSV](fig7.csv))\n",
-        args.scene
+        "## Fig. 7: {} primary rays ({size}, one thread): Mrays/s against kd-tree size\n\n![fig7](fig7.svg) ([CSV](fig7.csv))\n\n{}\n",
+        args.scene,
+        sweep::best_culled_vs_unculled(&points).unwrap_or_default()
     );
 
     let mut bench_args = vec![

@@ -85,7 +85,8 @@ struct RenderArgs {
     #[arg(long)]
     threads: Option<usize>,
     /// Culling in the leaves: none, 4plane, 6plane, 4plane+aperture, 6plane+aperture or auto,
-    /// optionally /masked|/maskless|/adaptive and ,distance-first|,aperture-first.
+    /// optionally /masked|/maskless|/adaptive|/packet (whole-packet traversal) and
+    /// ,distance-first|,aperture-first.
     #[arg(long, default_value = "auto")]
     culling: Culling,
     #[command(flatten)]
