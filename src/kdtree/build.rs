@@ -241,8 +241,11 @@ fn build_subtree(
     let Some(split) = split else {
         return make_leaf(node, depth, scratch, out);
     };
-    let (below, above) = split_node(context, node, &split, scratch);
     let position = unkey(split.pos_key);
+    if split.below_count == 0 || split.above_count == 0 {
+        return cut_off_empty_space(context, node, &split, depth, scratch, out);
+    }
+    let (below, above) = split_node(context, node, &split, scratch);
 
     #[cfg(feature = "parallel")]
     if context.parallel && n > PARALLEL_MIN_TRIANGLES {
@@ -266,6 +269,34 @@ fn build_subtree(
     build_subtree(context, below, depth + 1, scratch, out)?;
     out.close_inner(at, split.axis, position)?;
     build_subtree(context, above, depth + 1, scratch, out)
+}
+
+/// Emits a split with one empty side: an empty leaf, and `node` itself, in the smaller cell, on
+/// the other side. No classification is needed: with one side empty every triangle lies on the
+/// other side (the sweep counted them), so none is clipped and the local indices and event lists
+/// carry over unchanged.
+fn cut_off_empty_space(
+    context: &Context<'_>,
+    mut node: NodeInput,
+    split: &Split,
+    depth: u32,
+    scratch: &mut Scratch,
+    out: &mut Layout,
+) -> Result<()> {
+    let position = unkey(split.pos_key);
+    let at = out.open_inner();
+    if split.below_count == 0 {
+        node.cell.min[split.axis] = position;
+        out.push_empty_leaf(depth + 1);
+        out.close_inner(at, split.axis, position)?;
+        build_subtree(context, node, depth + 1, scratch, out)
+    } else {
+        node.cell.max[split.axis] = position;
+        build_subtree(context, node, depth + 1, scratch, out)?;
+        out.close_inner(at, split.axis, position)?;
+        out.push_empty_leaf(depth + 1);
+        Ok(())
+    }
 }
 
 /// Emits `node` as a leaf: its ids sorted ascending, its box the span of its events (the

@@ -26,6 +26,11 @@ pub(super) struct Split {
     pub planar_below: bool,
     /// Its SAH cost.
     pub cost: f32,
+    /// Triangles on the below side, the planar ones included when they go below. When it is
+    /// 0, every triangle goes above, unclipped, with its events unchanged.
+    pub below_count: u32,
+    /// Triangles on the above side, likewise.
+    pub above_count: u32,
 }
 
 impl CostModel {
@@ -113,7 +118,7 @@ impl CostModel {
         let (mut n_below, mut n_above) = (0u32, n);
         let (mut planars, mut joining_below) = (0u32, 0u32);
         let mut best_weighted = f32::INFINITY;
-        let mut best = (0u32, true);
+        let mut best = (0u32, true, 0u32, 0u32);
         for (i, &e) in list.iter().enumerate() {
             let k = kind(e);
             n_above -= u32::from(k != START);
@@ -144,7 +149,12 @@ impl CostModel {
                 };
                 if w < best_weighted {
                     best_weighted = w;
-                    best = (here, planar_below);
+                    let np = if planar_below {
+                        (planars, 0)
+                    } else {
+                        (0, planars)
+                    };
+                    best = (here, planar_below, n_below + np.0, n_above + np.1);
                 }
             }
             n_below += joining_below;
@@ -156,6 +166,8 @@ impl CostModel {
             pos_key: best.0,
             planar_below: best.1,
             cost: 1.0 + self.ci_over_ct * best_weighted,
+            below_count: best.2,
+            above_count: best.3,
         })
     }
 }
