@@ -26,7 +26,7 @@ use super::events::{
     MAX_LOCAL, PLANAR, START,
 };
 use super::layout::Layout;
-use super::sah::{CostModel, Split};
+use super::sah::{Bins, CostModel, Split};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
 
@@ -34,8 +34,26 @@ use crate::{Error, Mesh, Result};
 #[cfg(feature = "parallel")]
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
 
-/// A node waiting to be built: its triangles (mesh ids, in local index order), its sorted
-/// event lists and its cell.
+/// Nodes with more triangles than this are split by binning, smaller ones by the exact sweep.
+const EXACT_MAX: usize = 256;
+
+/// A node waiting to be built, in the form its size calls for.
+enum Pending {
+    /// More than [`EXACT_MAX`] triangles.
+    Binned(BoxNode),
+    /// At most [`EXACT_MAX`] triangles.
+    Exact(NodeInput),
+}
+
+/// A large node: its triangles (mesh ids) and their boxes clipped to its cell.
+struct BoxNode {
+    ids: Vec<u32>,
+    boxes: Vec<Aabb>,
+    cell: Aabb,
+}
+
+/// A small node: its triangles (mesh ids, in local index order), its sorted event lists and
+/// its cell.
 struct NodeInput {
     ids: Vec<u32>,
     events: [Vec<Event>; 3],
@@ -148,8 +166,9 @@ impl KdTree {
             parallel: rayon::current_num_threads() > 1,
         };
         let mut layout = Layout::default();
-        let root = root_node(&context, bounds);
-        build_subtree(&context, root, 0, &mut Scratch::default(), &mut layout)?;
+        let mut scratch = Scratch::default();
+        let root = root_node(&context, bounds, &mut scratch);
+        build_subtree(&context, root, 0, &mut scratch, &mut layout)?;
         let out = layout.finish();
 
         let triangles: Vec<Triangle> = out
@@ -185,68 +204,186 @@ impl KdTree {
     }
 }
 
-/// The root: every triangle, its vertex box's events, sorted once.
-fn root_node(context: &Context<'_>, cell: Aabb) -> NodeInput {
-    let n = context.triangles.len();
-    let mut events: [Vec<Event>; 3] = Default::default();
-    for list in &mut events {
-        list.reserve(2 * n);
-    }
-    for (id, tri) in context.triangles.iter().enumerate() {
-        let b = Aabb::from_points([tri.v0, tri.v1, tri.v2]);
-        push_box_events(&mut events, &b, id as u32);
-    }
-    let [x, y, z] = &mut events;
-    sort_all(context, [x, y, z]);
-    NodeInput {
-        ids: (0..n as u32).collect(),
-        events,
-        cell,
-    }
+/// The root: every triangle with its vertex box.
+fn root_node(context: &Context<'_>, cell: Aabb, scratch: &mut Scratch) -> Pending {
+    let boxes = context
+        .triangles
+        .iter()
+        .map(|t| Aabb::from_points([t.v0, t.v1, t.v2]))
+        .collect();
+    let ids = (0..context.triangles.len() as u32).collect();
+    pending(BoxNode { ids, boxes, cell }, scratch)
 }
 
-/// Sorts the three root lists (in parallel when allowed).
-fn sort_all(context: &Context<'_>, [x, y, z]: [&mut Vec<Event>; 3]) {
-    #[cfg(feature = "parallel")]
-    if context.parallel {
-        rayon::join(
-            || x.sort_unstable(),
-            || rayon::join(|| y.sort_unstable(), || z.sort_unstable()),
-        );
-        return;
+/// `node` in the form its size calls for: as it is if large, else with its boxes' events,
+/// sorted (there are at most 6·[`EXACT_MAX`] per axis).
+fn pending(node: BoxNode, scratch: &mut Scratch) -> Pending {
+    if node.ids.len() > EXACT_MAX {
+        return Pending::Binned(node);
     }
-    let _ = context;
-    for list in [x, y, z] {
+    let mut events: [Vec<Event>; 3] = [
+        scratch.take_events(),
+        scratch.take_events(),
+        scratch.take_events(),
+    ];
+    for (local, b) in node.boxes.iter().enumerate() {
+        push_box_events(&mut events, b, local as u32);
+    }
+    for list in &mut events {
         list.sort_unstable();
     }
+    Pending::Exact(NodeInput {
+        ids: node.ids,
+        events,
+        cell: node.cell,
+    })
 }
 
 /// Builds `node` at `depth` and everything below it into `out`, depth first.
 fn build_subtree(
     context: &Context<'_>,
-    node: NodeInput,
+    node: Pending,
+    depth: u32,
+    scratch: &mut Scratch,
+    out: &mut Layout,
+) -> Result<()> {
+    match node {
+        Pending::Binned(node) => {
+            let bins = Bins::new(&node.boxes);
+            build_binned(context, node, &bins, depth, scratch, out)
+        }
+        Pending::Exact(node) => build_exact(context, node, depth, scratch, out),
+    }
+}
+
+/// Whether a node of `n` triangles at `depth` may be split at all.
+fn may_split(context: &Context<'_>, n: usize, depth: u32) -> bool {
+    n > context.leaf_size && depth < context.depth_limit
+}
+
+/// Builds large `node`, whose boxes' counts are `bins`, with the binned search.
+fn build_binned(
+    context: &Context<'_>,
+    mut node: BoxNode,
+    bins: &Bins,
     depth: u32,
     scratch: &mut Scratch,
     out: &mut Layout,
 ) -> Result<()> {
     let n = node.ids.len();
-    let split = if n <= context.leaf_size || depth >= context.depth_limit {
-        None
-    } else {
-        context
-            .costs
-            .best_split(&node.events, n, &node.cell)
-            .filter(|s| s.cost < context.costs.leaf_cost(n))
+    let split = may_split(context, n, depth)
+        .then(|| context.costs.best_binned_split(bins, &node.cell))
+        .flatten()
+        .filter(|s| s.cost < context.costs.leaf_cost(n));
+    let Some(split) = split else {
+        node.ids.sort_unstable();
+        return out.push_leaf(depth, &node.ids, bins.union());
     };
+    if split.below_count == 0 || split.above_count == 0 {
+        let cell = cut_cell(&mut node.cell, &split);
+        return cut_off_empty_space(&split, cell, depth, scratch, out, |scratch, out| {
+            build_binned(context, node, bins, depth + 1, scratch, out)
+        });
+    }
+    let (below, above) = split_boxes(context, node, &split, scratch);
+    build_children(context, below, above, &split, n, depth, scratch, out)
+}
+
+/// Builds small `node` with the exact sweep.
+fn build_exact(
+    context: &Context<'_>,
+    mut node: NodeInput,
+    depth: u32,
+    scratch: &mut Scratch,
+    out: &mut Layout,
+) -> Result<()> {
+    let n = node.ids.len();
+    let split = may_split(context, n, depth)
+        .then(|| context.costs.best_split(&node.events, n, &node.cell))
+        .flatten()
+        .filter(|s| s.cost < context.costs.leaf_cost(n));
     let Some(split) = split else {
         return make_leaf(node, depth, scratch, out);
     };
-    let position = unkey(split.pos_key);
     if split.below_count == 0 || split.above_count == 0 {
-        return cut_off_empty_space(context, node, &split, depth, scratch, out);
+        let cell = cut_cell(&mut node.cell, &split);
+        return cut_off_empty_space(&split, cell, depth, scratch, out, |scratch, out| {
+            build_exact(context, node, depth + 1, scratch, out)
+        });
     }
     let (below, above) = split_node(context, node, &split, scratch);
+    build_children(
+        context,
+        Pending::Exact(below),
+        Pending::Exact(above),
+        &split,
+        n,
+        depth,
+        scratch,
+        out,
+    )
+}
 
+/// Which side of a split with an empty side is empty.
+#[derive(Clone, Copy, PartialEq)]
+enum EmptySide {
+    Below,
+    Above,
+}
+
+/// Shrinks `cell` to the non-empty side of `split` (which has an empty side); returns which
+/// side is empty.
+fn cut_cell(cell: &mut Aabb, split: &Split) -> EmptySide {
+    let position = unkey(split.pos_key);
+    if split.below_count == 0 {
+        cell.min[split.axis] = position;
+        EmptySide::Below
+    } else {
+        cell.max[split.axis] = position;
+        EmptySide::Above
+    }
+}
+
+/// Emits a split with an empty side: an empty leaf, and on the other side the node itself in
+/// the smaller cell, built by `rest`. No classification is needed: with one side empty every
+/// triangle lies on the other side (the counts are exact for such planes), so none is clipped
+/// and the node's triangles, boxes or event lists and local indices carry over unchanged.
+fn cut_off_empty_space(
+    split: &Split,
+    empty: EmptySide,
+    depth: u32,
+    scratch: &mut Scratch,
+    out: &mut Layout,
+    rest: impl FnOnce(&mut Scratch, &mut Layout) -> Result<()>,
+) -> Result<()> {
+    let position = unkey(split.pos_key);
+    let at = out.open_inner();
+    if empty == EmptySide::Below {
+        out.push_empty_leaf(depth + 1);
+        out.close_inner(at, split.axis, position)?;
+        rest(scratch, out)
+    } else {
+        rest(scratch, out)?;
+        out.close_inner(at, split.axis, position)?;
+        out.push_empty_leaf(depth + 1);
+        Ok(())
+    }
+}
+
+/// Builds the children of a node of `n` triangles at `depth` split at `split`, and the inner
+/// node itself (in parallel for large nodes when allowed).
+#[allow(clippy::too_many_arguments)]
+fn build_children(
+    context: &Context<'_>,
+    below: Pending,
+    above: Pending,
+    split: &Split,
+    n: usize,
+    depth: u32,
+    scratch: &mut Scratch,
+    out: &mut Layout,
+) -> Result<()> {
+    let position = unkey(split.pos_key);
     #[cfg(feature = "parallel")]
     if context.parallel && n > PARALLEL_MIN_TRIANGLES {
         let (mut below_out, mut above_out) = (Layout::default(), Layout::default());
@@ -264,39 +401,13 @@ fn build_subtree(
         out.close_inner(at, split.axis, position)?;
         return out.append(above_out);
     }
+    #[cfg(not(feature = "parallel"))]
+    let _ = n;
 
     let at = out.open_inner();
     build_subtree(context, below, depth + 1, scratch, out)?;
     out.close_inner(at, split.axis, position)?;
     build_subtree(context, above, depth + 1, scratch, out)
-}
-
-/// Emits a split with one empty side: an empty leaf, and `node` itself, in the smaller cell, on
-/// the other side. No classification is needed: with one side empty every triangle lies on the
-/// other side (the sweep counted them), so none is clipped and the local indices and event lists
-/// carry over unchanged.
-fn cut_off_empty_space(
-    context: &Context<'_>,
-    mut node: NodeInput,
-    split: &Split,
-    depth: u32,
-    scratch: &mut Scratch,
-    out: &mut Layout,
-) -> Result<()> {
-    let position = unkey(split.pos_key);
-    let at = out.open_inner();
-    if split.below_count == 0 {
-        node.cell.min[split.axis] = position;
-        out.push_empty_leaf(depth + 1);
-        out.close_inner(at, split.axis, position)?;
-        build_subtree(context, node, depth + 1, scratch, out)
-    } else {
-        node.cell.max[split.axis] = position;
-        build_subtree(context, node, depth + 1, scratch, out)?;
-        out.close_inner(at, split.axis, position)?;
-        out.push_empty_leaf(depth + 1);
-        Ok(())
-    }
 }
 
 /// Emits `node` as a leaf: its ids sorted ascending, its box the span of its events (the
@@ -311,6 +422,73 @@ fn make_leaf(node: NodeInput, depth: u32, scratch: &mut Scratch, out: &mut Layou
     }
     scratch.recycle(node);
     Ok(())
+}
+
+/// Which side of the plane at `p` on a split's axis a box spanning `[lo, hi]` there lies on:
+/// the classification of the events (Wald & Havran §4.3), on the box itself.
+#[inline(always)]
+fn side_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> Side {
+    if lo == hi {
+        if lo < p || (lo == p && planar_below) {
+            BELOW
+        } else {
+            ABOVE
+        }
+    } else if hi <= p {
+        BELOW
+    } else if lo >= p {
+        ABOVE
+    } else {
+        BOTH
+    }
+}
+
+/// Splits large `node` at `split` (which has triangles on both sides): one-sided triangles go
+/// to their side with their boxes, straddling ones are clipped to each child cell.
+fn split_boxes(
+    context: &Context<'_>,
+    node: BoxNode,
+    split: &Split,
+    scratch: &mut Scratch,
+) -> (Pending, Pending) {
+    let axis = split.axis;
+    let p = unkey(split.pos_key);
+    let (mut below_cell, mut above_cell) = (node.cell, node.cell);
+    below_cell.max[axis] = p;
+    above_cell.min[axis] = p;
+    let capacity = |count: u32| count as usize + count as usize / 8;
+    let mut below = BoxNode {
+        ids: Vec::with_capacity(capacity(split.below_count)),
+        boxes: Vec::with_capacity(capacity(split.below_count)),
+        cell: below_cell,
+    };
+    let mut above = BoxNode {
+        ids: Vec::with_capacity(capacity(split.above_count)),
+        boxes: Vec::with_capacity(capacity(split.above_count)),
+        cell: above_cell,
+    };
+    for (&id, b) in node.ids.iter().zip(&node.boxes) {
+        match side_of(b.min[axis], b.max[axis], p, split.planar_below) {
+            BELOW => {
+                below.ids.push(id);
+                below.boxes.push(*b);
+            }
+            ABOVE => {
+                above.ids.push(id);
+                above.boxes.push(*b);
+            }
+            _ => {
+                let tri = &context.triangles[id as usize];
+                for child in [&mut below, &mut above] {
+                    if let Some(clipped) = clipped_bounds(tri, &child.cell) {
+                        child.ids.push(id);
+                        child.boxes.push(clipped);
+                    }
+                }
+            }
+        }
+    }
+    (pending(below, scratch), pending(above, scratch))
 }
 
 /// Splits `node` at `split` into its below and above children (Wald & Havran §4.3).

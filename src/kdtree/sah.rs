@@ -1,5 +1,6 @@
 //! The surface area heuristic and the event sweep that finds a node's best plane
-//! (Wald & Havran 2006, §3 and §4.2, Algorithm 4).
+//! (Wald & Havran 2006, §3 and §4.2, Algorithm 4), and the binned search used instead on large
+//! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
 
 use kdbeam_kernels::Aabb;
 
@@ -61,27 +62,10 @@ impl CostModel {
     /// Ties keep the first plane found (axes in order, positions ascending), and the below side
     /// for the triangles lying in the plane.
     pub fn best_split(&self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) -> Option<Split> {
-        // Areas are computed from extents divided by the largest one, so that huge
-        // coordinates cannot overflow the products; the ratios P are unchanged.
-        let extent = cell.extent();
-        let scale = extent.max_element();
-        if !(scale > 0.0 && scale.is_finite()) {
-            return None;
-        }
-        let unit = extent / scale;
         let mut best: Option<Split> = None;
         for (axis, list) in events.iter().enumerate() {
-            if unit[axis] <= 0.0 {
+            let Some(geometry) = AxisGeometry::new(cell, axis) else {
                 continue;
-            }
-            let (a, b) = (unit[(axis + 1) % 3], unit[(axis + 2) % 3]);
-            let geometry = AxisGeometry {
-                ab: a * b,
-                a_plus_b: a + b,
-                inv_area: 1.0 / (a * b + (a + b) * unit[axis]),
-                inv_scale: 1.0 / scale,
-                lo: cell.min[axis],
-                hi: cell.max[axis],
             };
             if let Some(found) = self.sweep(list, n as u32, &geometry, axis) {
                 if best.is_none_or(|b| found.cost < b.cost) {
@@ -92,6 +76,76 @@ impl CostModel {
         best
     }
 
+    /// The cheapest plane in `cell` among a binned node's candidates ([`Bins`]): per axis, the
+    /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
+    /// boundaries strictly between the union's faces, and the face above them all
+    /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
+    /// [`CostModel::best_split`].
+    ///
+    /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
+    /// (so that empty space is cut off exactly where the sweep would cut it), and at a boundary
+    /// an estimate that may count a triangle touching the plane on the wrong side. Only the
+    /// choice of plane is approximate: the split itself classifies and clips exactly. A boundary
+    /// never sees an empty side (the union's faces lie in the first and last bins), so
+    /// [`Split::below_count`] and [`Split::above_count`] are 0 only when exact.
+    ///
+    /// Ties keep the first plane found (axes in order, positions ascending). Triangles lying in
+    /// a plane go below, except at the union's lower face (where they go above, so that the
+    /// below side is empty).
+    pub fn best_binned_split(&self, bins: &Bins, cell: &Aabb) -> Option<Split> {
+        let mut best: Option<Split> = None;
+        let n = bins.count;
+        for axis in 0..3 {
+            let Some(g) = AxisGeometry::new(cell, axis) else {
+                continue;
+            };
+            let (first, last) = (bins.union.min[axis], bins.union.max[axis]);
+            let mut offer = |p: f32, planar_below: bool, below: u32, above: u32| {
+                if !(p > g.lo && p < g.hi) {
+                    return;
+                }
+                let (p_below, p_above) = g.areas(p);
+                let w = self.weighted(p_below, p_above, below as f32, above as f32);
+                let cost = 1.0 + self.ci_over_ct * w;
+                if best.is_none_or(|b| cost < b.cost) {
+                    best = Some(Split {
+                        axis,
+                        pos_key: key(p),
+                        planar_below,
+                        cost,
+                        below_count: below,
+                        above_count: above,
+                    });
+                }
+            };
+            offer(first, false, 0, n);
+            let (mut below, mut above) = (0u32, n);
+            for j in 1..BINS {
+                below += bins.starts[axis][j - 1];
+                above -= bins.ends[axis][j - 1];
+                let p = bins.boundary(axis, j);
+                if p > first && p < last {
+                    offer(p, true, below, above);
+                }
+            }
+            offer(last, true, n, 0);
+        }
+        best
+    }
+
+    /// `λ · (P_b·N_b + P_a·N_a)`: the part of a plane's cost that differs between planes, with
+    /// λ = `1 − empty_bonus` when a side is empty. Counts are converted to f32 (exact below
+    /// 2^24; beyond, rounding only blurs near-ties).
+    #[inline(always)]
+    fn weighted(&self, p_below: f32, p_above: f32, nb: f32, na: f32) -> f32 {
+        let lambda = if nb == 0.0 || na == 0.0 {
+            self.empty_factor
+        } else {
+            1.0
+        };
+        lambda * (p_below * nb + p_above * na)
+    }
+
     /// One sweep over an axis's sorted events (Algorithm 4). At each distinct position p,
     /// with p⁻, p|, p⁺ the numbers of end, planar and start events there: `N_above −= p⁻ + p|`,
     /// evaluate the plane with the planar triangles on either side, then `N_below += p⁺ + p|`.
@@ -100,21 +154,7 @@ impl CostModel {
     #[inline]
     fn sweep(&self, list: &[Event], n: u32, g: &AxisGeometry, axis: usize) -> Option<Split> {
         let (lo_key, hi_key) = (key(g.lo), key(g.hi));
-        // P_below = base + slope·(p − lo), P_above = base + slope·(hi − p). Differences from
-        // the cell's faces keep precision far from the origin.
-        let base = g.ab * g.inv_area;
-        let slope = g.a_plus_b * g.inv_scale * g.inv_area;
-        let empty_factor = self.empty_factor;
-        // λ · (P_b·N_b + P_a·N_a): the part of the cost that differs between planes. Counts
-        // are converted to f32 (exact below 2^24; beyond, rounding only blurs near-ties).
-        let weighted = |p_below: f32, p_above: f32, nb: f32, na: f32| {
-            let lambda = if nb == 0.0 || na == 0.0 {
-                empty_factor
-            } else {
-                1.0
-            };
-            lambda * (p_below * nb + p_above * na)
-        };
+        let weighted = |p_below, p_above, nb, na| self.weighted(p_below, p_above, nb, na);
         let (mut n_below, mut n_above) = (0u32, n);
         let (mut planars, mut joining_below) = (0u32, 0u32);
         let mut best_weighted = f32::INFINITY;
@@ -131,9 +171,7 @@ impl CostModel {
             }
             // Keys order like positions, so this is lo < p < hi.
             if here > lo_key && here < hi_key {
-                let p = unkey(here);
-                let p_below = base + slope * (p - g.lo);
-                let p_above = base + slope * (g.hi - p);
+                let (p_below, p_above) = g.areas(unkey(here));
                 let (nb, na) = (n_below as f32, n_above as f32);
                 let (w, planar_below) = if planars == 0 {
                     (weighted(p_below, p_above, nb, na), true)
@@ -172,14 +210,102 @@ impl CostModel {
     }
 }
 
-/// What the cost of a plane on one axis needs: with `a`, `b` the other two extents and `w`
-/// this one's (all over the largest extent), SA(child) / SA(cell) =
+/// What the cost of a plane on one axis of a cell needs: with `a`, `b` the other two extents
+/// and `w` this one's (all over the largest extent, so that huge coordinates cannot overflow
+/// the products; the ratios are unchanged), SA(child) / SA(cell) =
 /// `(ab + (a + b)·w_child) / (ab + (a + b)·w)`.
 struct AxisGeometry {
-    ab: f32,
-    a_plus_b: f32,
-    inv_area: f32,
-    inv_scale: f32,
+    /// `ab / SA`: a child's area ratio at zero width.
+    base: f32,
+    /// `(a + b) / (scale · SA)`: its growth per unit of width.
+    slope: f32,
     lo: f32,
     hi: f32,
+}
+
+impl AxisGeometry {
+    /// The geometry of `axis` of `cell`; `None` when the cell is flat on that axis or its
+    /// extents are not finite and positive (no plane lies strictly inside).
+    #[inline(always)]
+    fn new(cell: &Aabb, axis: usize) -> Option<Self> {
+        let extent = cell.extent();
+        let scale = extent.max_element();
+        if !(scale > 0.0 && scale.is_finite()) {
+            return None;
+        }
+        let unit = extent / scale;
+        if unit[axis] <= 0.0 {
+            return None;
+        }
+        let (a, b) = (unit[(axis + 1) % 3], unit[(axis + 2) % 3]);
+        let inv_area = 1.0 / (a * b + (a + b) * unit[axis]);
+        Some(AxisGeometry {
+            base: a * b * inv_area,
+            slope: (a + b) * (1.0 / scale) * inv_area,
+            lo: cell.min[axis],
+            hi: cell.max[axis],
+        })
+    }
+
+    /// `(P_below, P_above)` of the plane at `p`. Differences from the cell's faces keep
+    /// precision far from the origin.
+    #[inline(always)]
+    fn areas(&self, p: f32) -> (f32, f32) {
+        (
+            self.base + self.slope * (p - self.lo),
+            self.base + self.slope * (self.hi - p),
+        )
+    }
+}
+
+/// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
+pub(super) const BINS: usize = 32;
+
+/// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
+/// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
+/// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]`, the last
+/// bin closed. Kept across the empty-space cuts of a node, which change its cell, not its
+/// triangles.
+pub(super) struct Bins {
+    union: Aabb,
+    /// Bins per unit of length, per axis (infinite on a flat axis).
+    per_unit: [f32; 3],
+    starts: [[u32; BINS]; 3],
+    ends: [[u32; BINS]; 3],
+    count: u32,
+}
+
+impl Bins {
+    /// The counts of non-empty boxes `boxes` (at most 2³² − 1).
+    pub fn new(boxes: &[Aabb]) -> Bins {
+        let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+        let per_unit = (BINS as f32 / union.extent()).to_array();
+        let first = union.min.to_array();
+        let mut bins = Bins {
+            union,
+            per_unit,
+            starts: [[0; BINS]; 3],
+            ends: [[0; BINS]; 3],
+            count: boxes.len() as u32,
+        };
+        for b in boxes {
+            for axis in 0..3 {
+                // The cast saturates (negative to 0) and takes NaN (0 · ∞ on a flat axis) to 0.
+                let bin = |x: f32| (((x - first[axis]) * per_unit[axis]) as usize).min(BINS - 1);
+                bins.starts[axis][bin(b.min[axis])] += 1;
+                bins.ends[axis][bin(b.max[axis])] += 1;
+            }
+        }
+        bins
+    }
+
+    /// The union of the boxes.
+    pub fn union(&self) -> Aabb {
+        self.union
+    }
+
+    /// The position of boundary `j` (between bins `j − 1` and `j`) on `axis`.
+    fn boundary(&self, axis: usize, j: usize) -> f32 {
+        self.union.min[axis] + j as f32 / self.per_unit[axis]
+    }
 }
