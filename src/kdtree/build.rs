@@ -35,7 +35,7 @@ use crate::{Error, Mesh, Result};
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
 
 /// Nodes with more triangles than this are split by binning, smaller ones by the exact sweep.
-const EXACT_MAX: usize = 256;
+const EXACT_MAX: usize = 64;
 
 /// A node waiting to be built, in the form its size calls for.
 enum Pending {
