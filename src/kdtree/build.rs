@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
 
-use super::clip::clipped_bounds;
+use super::clip::split_clipped_bounds;
 use super::events::{
     kind, local, merge_into, pos_key, push_box_events, relocated, span, unkey, Event, END,
     MAX_LOCAL, PLANAR, START,
@@ -479,8 +479,9 @@ fn split_boxes(
             }
             _ => {
                 let tri = &context.triangles[id as usize];
-                for child in [&mut below, &mut above] {
-                    if let Some(clipped) = clipped_bounds(tri, &child.cell) {
+                let parts = split_clipped_bounds(tri, &node.cell, axis, p);
+                for (child, part) in [&mut below, &mut above].into_iter().zip(parts) {
+                    if let Some(clipped) = part {
                         child.ids.push(id);
                         child.boxes.push(clipped);
                     }
@@ -531,25 +532,14 @@ fn split_node(
     scratch.above_index.resize(n, u32::MAX);
     for (i, &id) in node.ids.iter().enumerate() {
         let side = scratch.sides[i];
-        let tri = &context.triangles[id as usize];
-        scratch.below_index[i] = admit(
-            tri,
-            id,
-            side,
-            BELOW,
-            &below_cell,
-            &mut below_ids,
-            &mut scratch.new_below,
-        );
-        scratch.above_index[i] = admit(
-            tri,
-            id,
-            side,
-            ABOVE,
-            &above_cell,
-            &mut above_ids,
-            &mut scratch.new_above,
-        );
+        let [below_part, above_part] = if side == BOTH {
+            let tri = &context.triangles[id as usize];
+            split_clipped_bounds(tri, &node.cell, axis, position).map(Part::Clipped)
+        } else {
+            [BELOW, ABOVE].map(|only| if side == only { Part::Whole } else { Part::None })
+        };
+        scratch.below_index[i] = admit(below_part, id, &mut below_ids, &mut scratch.new_below);
+        scratch.above_index[i] = admit(above_part, id, &mut above_ids, &mut scratch.new_above);
     }
 
     // Distribute the one-sided triangles' events in order, then merge in the clipped ones.
@@ -587,25 +577,23 @@ fn split_node(
     )
 }
 
-/// Admits triangle `id` of side `side` to the child that keeps the `only` side and lies in
-/// `cell`: one-sided triangles as they are, straddling ones if their clipped part is not empty
-/// (its events go to `new_events`). Returns its index in the child, `u32::MAX` if left out.
-fn admit(
-    tri: &Triangle,
-    id: u32,
-    side: Side,
-    only: Side,
-    cell: &Aabb,
-    ids: &mut Vec<u32>,
-    new_events: &mut [Vec<Event>; 3],
-) -> u32 {
-    let clipped = match side {
-        BOTH => match clipped_bounds(tri, cell) {
-            Some(b) => Some(b),
-            None => return u32::MAX,
-        },
-        s if s == only => None,
-        _ => return u32::MAX,
+/// What of a triangle a child gets.
+enum Part {
+    /// All of it: it lies on the child's side only.
+    Whole,
+    /// It straddles the plane; the box of its part in the child's cell, if any.
+    Clipped(Option<Aabb>),
+    /// Nothing: it lies on the other side only.
+    None,
+}
+
+/// Admits triangle `id` to a child as `part` says: whole, or clipped if anything is left (its
+/// new events go to `new_events`). Returns its index in the child, `u32::MAX` if left out.
+fn admit(part: Part, id: u32, ids: &mut Vec<u32>, new_events: &mut [Vec<Event>; 3]) -> u32 {
+    let clipped = match part {
+        Part::Whole => None,
+        Part::Clipped(Some(b)) => Some(b),
+        Part::Clipped(None) | Part::None => return u32::MAX,
     };
     let index = ids.len() as u32;
     ids.push(id);

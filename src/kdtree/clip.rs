@@ -28,60 +28,142 @@ const MAX_POLYGON: usize = 12;
 /// it (module docs).
 const MARGIN: f64 = 1.0 / (1u64 << 46) as f64;
 
-/// The box of `tri ∩ cell`, conservative in f32 and inside `cell`; `None` when they do not meet.
+/// The boxes of `tri ∩ below` and `tri ∩ above`, where `below` and `above` are the halves of
+/// `cell` split at `position` on `axis` (`cell.min[axis] <= position <= cell.max[axis]`): each
+/// conservative in f32 and inside its half, `None` when the triangle does not meet it.
 ///
-/// A triangle touching the cell only on its boundary gives a flat box on that boundary.
+/// The triangle is clipped once to the (grown) cell and the polygon then once more to each
+/// side of the (grown) plane: the same half-spaces as clipping to each half, in another order.
+/// A triangle touching a half only on its boundary gives a flat box on that boundary.
 /// Degenerate triangles (segments, points) clip like any other polygon.
-pub(super) fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
-    let verts = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-    let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
-    let magnitude = verts
-        .iter()
-        .chain([&cmin, &cmax])
-        .fold(0.0f64, |m, v| m.max(v.abs().max_element()));
-    let margin = magnitude * MARGIN;
-    let (lo, hi) = (cmin - margin, cmax + margin);
+pub(super) fn split_clipped_bounds(
+    tri: &Triangle,
+    cell: &Aabb,
+    axis: usize,
+    position: f32,
+) -> [Option<Aabb>; 2] {
+    let (mut below, mut above) = (*cell, *cell);
+    below.max[axis] = position;
+    above.min[axis] = position;
+    let clip = Clip::new(tri, cell);
+    let Some(poly) = clip.to_cell() else {
+        return [None, None];
+    };
+    let Ok(poly) = poly else {
+        return [fallback(tri, &below), fallback(tri, &above)];
+    };
+    let plane = f64::from(position);
+    [
+        (below, plane + clip.margin, false),
+        (above, plane - clip.margin, true),
+    ]
+    .map(|(half, plane, keep_above)| {
+        let mut part = poly;
+        match part.clip(axis, plane, keep_above) {
+            Ok(()) => clip.bounds(&part, &half),
+            Err(Overflow) => fallback(tri, &half),
+        }
+    })
+}
 
-    let mut poly = [DVec3::ZERO; MAX_POLYGON];
-    poly[..3].copy_from_slice(&verts);
-    let mut len = 3;
-    let mut scratch = [DVec3::ZERO; MAX_POLYGON];
-    for axis in 0..3 {
-        for (plane, keep_above) in [(lo[axis], true), (hi[axis], false)] {
-            let inside = |p: DVec3| {
-                if keep_above {
-                    p[axis] - plane
-                } else {
-                    plane - p[axis]
-                }
-            };
-            if poly[..len].iter().all(|&p| inside(p) >= 0.0) {
-                continue;
-            }
-            match clip_polygon(&poly[..len], &mut scratch, axis, plane, inside) {
-                Some(0) => return None,
-                Some(n) => {
-                    poly[..n].copy_from_slice(&scratch[..n]);
-                    len = n;
-                }
-                None => return fallback(tri, cell),
-            }
+/// A triangle being clipped to a cell grown by the margin, in f64.
+struct Clip<'a> {
+    tri: &'a Triangle,
+    /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
+    margin: f64,
+    /// The grown cell's corners.
+    lo: DVec3,
+    hi: DVec3,
+}
+
+/// A convex polygon of at most [`MAX_POLYGON`] vertices.
+#[derive(Clone, Copy)]
+struct Polygon {
+    verts: [DVec3; MAX_POLYGON],
+    len: usize,
+}
+
+/// Rounding made a clipped polygon non-convex (it outgrew [`MAX_POLYGON`]).
+struct Overflow;
+
+impl<'a> Clip<'a> {
+    fn new(tri: &'a Triangle, cell: &Aabb) -> Self {
+        let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
+        let magnitude = [tri.v0, tri.v1, tri.v2]
+            .iter()
+            .map(|&v| DVec3::from(v))
+            .chain([cmin, cmax])
+            .fold(0.0f64, |m, v| m.max(v.abs().max_element()));
+        let margin = magnitude * MARGIN;
+        Clip {
+            tri,
+            margin,
+            lo: cmin - margin,
+            hi: cmax + margin,
         }
     }
 
-    let (mut pmin, mut pmax) = (poly[0], poly[0]);
-    for &p in &poly[1..len] {
-        pmin = pmin.min(p);
-        pmax = pmax.max(p);
+    /// The triangle clipped to the grown cell: `None` if nothing is left, `Err` on overflow.
+    fn to_cell(&self) -> Option<Result<Polygon, Overflow>> {
+        let mut poly = Polygon {
+            verts: [DVec3::ZERO; MAX_POLYGON],
+            len: 3,
+        };
+        poly.verts[..3].copy_from_slice(&[self.tri.v0, self.tri.v1, self.tri.v2].map(DVec3::from));
+        for axis in 0..3 {
+            for (plane, keep_above) in [(self.lo[axis], true), (self.hi[axis], false)] {
+                if let Err(overflow) = poly.clip(axis, plane, keep_above) {
+                    return Some(Err(overflow));
+                }
+                if poly.len == 0 {
+                    return None;
+                }
+            }
+        }
+        Some(Ok(poly))
     }
-    // The triangle's own box is exact: intersecting with it keeps flat triangles flat.
-    let exact = vertex_box(tri).intersection(*cell);
-    let mut b = Aabb::EMPTY;
-    for axis in 0..3 {
-        b.min[axis] = round_down(pmin[axis] - margin).max(exact.min[axis]);
-        b.max[axis] = round_up(pmax[axis] + margin).min(exact.max[axis]);
+
+    /// The f32 box of clipped polygon `poly`, rounded outward by the margin, within the
+    /// triangle's own box (exact: it keeps flat triangles flat) and `cell`; `None` if empty.
+    fn bounds(&self, poly: &Polygon, cell: &Aabb) -> Option<Aabb> {
+        let verts = &poly.verts[..poly.len];
+        let first = *verts.first()?;
+        let (mut pmin, mut pmax) = (first, first);
+        for &p in &verts[1..] {
+            pmin = pmin.min(p);
+            pmax = pmax.max(p);
+        }
+        let exact = vertex_box(self.tri).intersection(*cell);
+        let mut b = Aabb::EMPTY;
+        for axis in 0..3 {
+            b.min[axis] = round_down(pmin[axis] - self.margin).max(exact.min[axis]);
+            b.max[axis] = round_up(pmax[axis] + self.margin).min(exact.max[axis]);
+        }
+        (!b.is_empty()).then_some(b)
     }
-    (!b.is_empty()).then_some(b)
+}
+
+impl Polygon {
+    /// Clips to the half-space `p[axis] >= plane` (`keep_above`) or `<= plane`, in place; a
+    /// no-op when every vertex is inside.
+    fn clip(&mut self, axis: usize, plane: f64, keep_above: bool) -> Result<(), Overflow> {
+        let inside = |p: DVec3| {
+            if keep_above {
+                p[axis] - plane
+            } else {
+                plane - p[axis]
+            }
+        };
+        if self.verts[..self.len].iter().all(|&p| inside(p) >= 0.0) {
+            return Ok(());
+        }
+        let mut out = [DVec3::ZERO; MAX_POLYGON];
+        let n = clip_polygon(&self.verts[..self.len], &mut out, axis, plane, inside)
+            .ok_or(Overflow)?;
+        self.verts = out;
+        self.len = n;
+        Ok(())
+    }
 }
 
 /// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
@@ -160,6 +242,34 @@ mod tests {
 
     fn cell(min: [f32; 3], max: [f32; 3]) -> Aabb {
         Aabb::new(Vec3::from(min), Vec3::from(max))
+    }
+
+    /// The box of `tri ∩ cell` by the same steps as [`split_clipped_bounds`], without a split.
+    fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
+        let clip = Clip::new(tri, cell);
+        match clip.to_cell()? {
+            Ok(poly) => clip.bounds(&poly, cell),
+            Err(Overflow) => fallback(tri, cell),
+        }
+    }
+
+    #[test]
+    fn split_halves_match_clipping_to_each_half() {
+        // The triangle x + y <= 1 (z = 0) split at x = 0.5 in a cell that cuts it at y = 0.8:
+        // each half's box is what clipping to that half gives.
+        let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        let c = cell([-1.0, -1.0, -1.0], [2.0, 0.8, 1.0]);
+        let [below, above] = split_clipped_bounds(&tri, &c, 0, 0.5);
+        let below = below.unwrap();
+        let above = above.unwrap();
+        assert_eq!(Some(below), clipped_bounds(&tri, &cell([-1.0, -1.0, -1.0], [0.5, 0.8, 1.0])));
+        assert_eq!(Some(above), clipped_bounds(&tri, &cell([0.5, -1.0, -1.0], [2.0, 0.8, 1.0])));
+        // Tolerance: a few f32 ulps from the outward rounding.
+        assert!((below.max.y - 0.8).abs() < 1e-6 && (above.max.y - 0.5).abs() < 1e-6);
+        assert_eq!((below.max.x, above.min.x), (0.5, 0.5));
+        // A split beyond the triangle leaves one side empty.
+        let [below, above] = split_clipped_bounds(&tri, &c, 0, 1.5);
+        assert!(below.is_some() && above.is_none());
     }
 
     #[test]
