@@ -46,18 +46,28 @@ pub(super) fn split_clipped_bounds(
     below.max[axis] = position;
     above.min[axis] = position;
     let clip = Clip::new(tri, cell);
+    let plane = f64::from(position);
+    let sides = [
+        (below, plane + clip.margin, false),
+        (above, plane - clip.margin, true),
+    ];
+    let vb = vertex_box(tri);
+    if cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all() {
+        // The common case, a triangle inside the cell: the clip to the cell is a no-op, and
+        // only the plane cuts the triangle; the parts' boxes come without a polygon.
+        let verts = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+        return sides.map(|(half, plane, keep_above)| {
+            let (lo, hi) = half_space_span(&verts, axis, plane, keep_above)?;
+            clip.rounded(lo, hi, &half)
+        });
+    }
     let Some(poly) = clip.to_cell() else {
         return [None, None];
     };
     let Ok(poly) = poly else {
         return [fallback(tri, &below), fallback(tri, &above)];
     };
-    let plane = f64::from(position);
-    [
-        (below, plane + clip.margin, false),
-        (above, plane - clip.margin, true),
-    ]
-    .map(|(half, plane, keep_above)| {
+    sides.map(|(half, plane, keep_above)| {
         let mut part = poly;
         match part.clip(axis, plane, keep_above) {
             Ok(()) => clip.bounds(&part, &half),
@@ -133,6 +143,12 @@ impl<'a> Clip<'a> {
             pmin = pmin.min(p);
             pmax = pmax.max(p);
         }
+        self.rounded(pmin, pmax, cell)
+    }
+
+    /// The f32 box of `[pmin, pmax]` rounded outward by the margin, within the triangle's own
+    /// box and `cell`; `None` if empty.
+    fn rounded(&self, pmin: DVec3, pmax: DVec3, cell: &Aabb) -> Option<Aabb> {
         let exact = vertex_box(self.tri).intersection(*cell);
         let mut b = Aabb::EMPTY;
         for axis in 0..3 {
@@ -164,6 +180,39 @@ impl Polygon {
         self.len = n;
         Ok(())
     }
+}
+
+/// The span of the part of triangle `verts` where `p[axis] >= plane` (`keep_above`) or
+/// `<= plane`: the Sutherland–Hodgman step of [`clip_polygon`] on a triangle, with its points
+/// computed the same way but only their span kept; `None` if nothing is left.
+fn half_space_span(
+    verts: &[DVec3; 3],
+    axis: usize,
+    plane: f64,
+    keep_above: bool,
+) -> Option<(DVec3, DVec3)> {
+    let inside = |p: DVec3| {
+        if keep_above {
+            p[axis] - plane
+        } else {
+            plane - p[axis]
+        }
+    };
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let mut any = false;
+    for i in 0..3 {
+        let (a, b) = (verts[i], verts[(i + 1) % 3]);
+        let (da, db) = (inside(a), inside(b));
+        if da >= 0.0 {
+            (lo, hi, any) = (lo.min(a), hi.max(a), true);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let mut p = a + (b - a) * (da / (da - db));
+            p[axis] = plane;
+            (lo, hi, any) = (lo.min(p), hi.max(p), true);
+        }
+    }
+    any.then_some((lo, hi))
 }
 
 /// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
