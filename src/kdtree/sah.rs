@@ -2,7 +2,8 @@
 //! (Wald & Havran 2006, §3 and §4.2, Algorithm 4), and the binned search used instead on large
 //! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
 
-use kdbeam_kernels::Aabb;
+use glam::IVec3;
+use kdbeam_kernels::{Aabb, Vec3};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
 use super::BuildParams;
@@ -280,7 +281,6 @@ impl Bins {
     pub fn new(boxes: &[Aabb]) -> Bins {
         let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
         let per_unit = (BINS as f32 / union.extent()).to_array();
-        let first = union.min.to_array();
         let mut bins = Bins {
             union,
             per_unit,
@@ -288,12 +288,15 @@ impl Bins {
             ends: [[0; BINS]; 3],
             count: boxes.len() as u32,
         };
+        let (first, per_unit) = (union.min, Vec3::from(per_unit));
+        let last = IVec3::splat(BINS as i32 - 1);
+        // The casts saturate (negative to 0) and take NaN (0 · ∞ on a flat axis) to 0.
+        let bin = |x: Vec3| ((x - first) * per_unit).as_ivec3().min(last).max(IVec3::ZERO);
         for b in boxes {
+            let (lo, hi) = (bin(b.min), bin(b.max));
             for axis in 0..3 {
-                // The cast saturates (negative to 0) and takes NaN (0 · ∞ on a flat axis) to 0.
-                let bin = |x: f32| (((x - first[axis]) * per_unit[axis]) as usize).min(BINS - 1);
-                bins.starts[axis][bin(b.min[axis])] += 1;
-                bins.ends[axis][bin(b.max[axis])] += 1;
+                bins.starts[axis][lo[axis] as usize] += 1;
+                bins.ends[axis][hi[axis] as usize] += 1;
             }
         }
         bins
