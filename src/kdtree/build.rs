@@ -26,7 +26,7 @@ use super::events::{
     MAX_LOCAL, PLANAR, START,
 };
 use super::layout::Layout;
-use super::sah::{Bins, CostModel, Split};
+use super::sah::{Bins, Candidates, CostModel, Split};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
 
@@ -91,6 +91,7 @@ struct Scratch {
     above_index: Vec<u32>,
     new_below: [Vec<Event>; 3],
     new_above: [Vec<Event>; 3],
+    candidates: Candidates,
 }
 
 impl Scratch {
@@ -248,10 +249,7 @@ fn build_subtree(
     out: &mut Layout,
 ) -> Result<()> {
     match node {
-        Pending::Binned(node) => {
-            let bins = Bins::new(&node.boxes);
-            build_binned(context, node, &bins, depth, scratch, out)
-        }
+        Pending::Binned(node) => build_binned(context, node, depth, scratch, out),
         Pending::Exact(node) => build_exact(context, node, depth, scratch, out),
     }
 }
@@ -261,113 +259,136 @@ fn may_split(context: &Context<'_>, n: usize, depth: u32) -> bool {
     n > context.leaf_size && depth < context.depth_limit
 }
 
-/// Builds large `node`, whose boxes' counts are `bins`, with the binned search.
+/// Builds large `node` with the binned search.
 fn build_binned(
     context: &Context<'_>,
     mut node: BoxNode,
-    bins: &Bins,
-    depth: u32,
+    mut depth: u32,
     scratch: &mut Scratch,
     out: &mut Layout,
 ) -> Result<()> {
     let n = node.ids.len();
-    let split = may_split(context, n, depth)
-        .then(|| context.costs.best_binned_split(bins, &node.cell))
-        .flatten()
-        .filter(|s| s.cost < context.costs.leaf_cost(n));
-    let Some(split) = split else {
-        node.ids.sort_unstable();
-        return out.push_leaf(depth, &node.ids, bins.union());
-    };
-    if split.below_count == 0 || split.above_count == 0 {
-        let cell = cut_cell(&mut node.cell, &split);
-        return cut_off_empty_space(&split, cell, depth, scratch, out, |scratch, out| {
-            build_binned(context, node, bins, depth + 1, scratch, out)
-        });
+    let bins = Bins::new(&node.boxes);
+    let mut open = Vec::new();
+    let split = cut_off_empty_space(context, n, &mut node.cell, &mut depth, out, &mut open, |cell| {
+        context.costs.best_binned_split(&bins, cell)
+    })?;
+    match split {
+        None => {
+            node.ids.sort_unstable();
+            out.push_leaf(depth, &node.ids, bins.union())?;
+        }
+        Some(split) => {
+            let (below, above) = split_boxes(context, node, &split, scratch);
+            build_children(context, below, above, &split, n, depth, scratch, out)?;
+        }
     }
-    let (below, above) = split_boxes(context, node, &split, scratch);
-    build_children(context, below, above, &split, n, depth, scratch, out)
+    close_cuts(out, open)
 }
 
 /// Builds small `node` with the exact sweep.
 fn build_exact(
     context: &Context<'_>,
     mut node: NodeInput,
-    depth: u32,
+    mut depth: u32,
     scratch: &mut Scratch,
     out: &mut Layout,
 ) -> Result<()> {
     let n = node.ids.len();
-    let split = may_split(context, n, depth)
-        .then(|| context.costs.best_split(&node.events, n, &node.cell))
-        .flatten()
-        .filter(|s| s.cost < context.costs.leaf_cost(n));
-    let Some(split) = split else {
-        return make_leaf(node, depth, scratch, out);
-    };
-    if split.below_count == 0 || split.above_count == 0 {
-        let cell = cut_cell(&mut node.cell, &split);
-        return cut_off_empty_space(&split, cell, depth, scratch, out, |scratch, out| {
-            build_exact(context, node, depth + 1, scratch, out)
-        });
+    let mut candidates = std::mem::take(&mut scratch.candidates);
+    if may_split(context, n, depth) {
+        candidates.gather(&node.events, n, &node.cell);
     }
-    let (below, above) = split_node(context, node, &split, scratch);
-    build_children(
-        context,
-        Pending::Exact(below),
-        Pending::Exact(above),
-        &split,
-        n,
-        depth,
-        scratch,
-        out,
-    )
-}
-
-/// Which side of a split with an empty side is empty.
-#[derive(Clone, Copy, PartialEq)]
-enum EmptySide {
-    Below,
-    Above,
-}
-
-/// Shrinks `cell` to the non-empty side of `split` (which has an empty side); returns which
-/// side is empty.
-fn cut_cell(cell: &mut Aabb, split: &Split) -> EmptySide {
-    let position = unkey(split.pos_key);
-    if split.below_count == 0 {
-        cell.min[split.axis] = position;
-        EmptySide::Below
-    } else {
-        cell.max[split.axis] = position;
-        EmptySide::Above
+    let mut open = Vec::new();
+    let split = cut_off_empty_space(context, n, &mut node.cell, &mut depth, out, &mut open, |cell| {
+        context.costs.best_split(&candidates, cell)
+    });
+    scratch.candidates = candidates;
+    match split? {
+        None => make_leaf(node, depth, scratch, out)?,
+        Some(split) => {
+            let (below, above) = split_node(context, node, &split, scratch);
+            build_children(
+                context,
+                Pending::Exact(below),
+                Pending::Exact(above),
+                &split,
+                n,
+                depth,
+                scratch,
+                out,
+            )?;
+        }
     }
+    close_cuts(out, open)
 }
 
-/// Emits a split with an empty side: an empty leaf, and on the other side the node itself in
-/// the smaller cell, built by `rest`. No classification is needed: with one side empty every
-/// triangle lies on the other side (the counts are exact for such planes), so none is clipped
-/// and the node's triangles, boxes or event lists and local indices carry over unchanged.
-fn cut_off_empty_space(
-    split: &Split,
-    empty: EmptySide,
+/// An inner node cutting off empty space above: its below child, the rest of the node, is
+/// being built; its above child will be an empty leaf.
+struct OpenCut {
+    at: usize,
+    axis: usize,
+    position: f32,
+    /// The empty leaf's depth.
     depth: u32,
-    scratch: &mut Scratch,
+}
+
+/// Takes the node of `n` triangles at `depth` in `cell` down the chain of splits with an
+/// empty side that `best` (its cheapest plane in a cell) chooses, and returns the split that
+/// follows, if any beats a leaf. `cell` and `depth` end as those of the rest of the node.
+///
+/// A split with an empty side is emitted at once: an empty leaf, and on the other side the
+/// node itself in the smaller cell. No classification is needed: with one side empty every
+/// triangle lies on the other side (the counts are exact for such planes), so none is clipped
+/// and the node's triangles, boxes or event lists, and its plane counts, carry over unchanged;
+/// only the costs change with the cell. Cuts whose empty leaf comes after the rest of the node
+/// are left in `open` for [`close_cuts`].
+fn cut_off_empty_space(
+    context: &Context<'_>,
+    n: usize,
+    cell: &mut Aabb,
+    depth: &mut u32,
     out: &mut Layout,
-    rest: impl FnOnce(&mut Scratch, &mut Layout) -> Result<()>,
-) -> Result<()> {
-    let position = unkey(split.pos_key);
-    let at = out.open_inner();
-    if empty == EmptySide::Below {
-        out.push_empty_leaf(depth + 1);
-        out.close_inner(at, split.axis, position)?;
-        rest(scratch, out)
-    } else {
-        rest(scratch, out)?;
-        out.close_inner(at, split.axis, position)?;
-        out.push_empty_leaf(depth + 1);
-        Ok(())
+    open: &mut Vec<OpenCut>,
+    best: impl Fn(&Aabb) -> Option<Split>,
+) -> Result<Option<Split>> {
+    loop {
+        if !may_split(context, n, *depth) {
+            return Ok(None);
+        }
+        let Some(split) = best(cell).filter(|s| s.cost < context.costs.leaf_cost(n)) else {
+            return Ok(None);
+        };
+        if split.below_count != 0 && split.above_count != 0 {
+            return Ok(Some(split));
+        }
+        let position = unkey(split.pos_key);
+        let at = out.open_inner();
+        if split.below_count == 0 {
+            out.push_empty_leaf(*depth + 1);
+            out.close_inner(at, split.axis, position)?;
+            cell.min[split.axis] = position;
+        } else {
+            open.push(OpenCut {
+                at,
+                axis: split.axis,
+                position,
+                depth: *depth + 1,
+            });
+            cell.max[split.axis] = position;
+        }
+        *depth += 1;
     }
+}
+
+/// Closes the cuts [`cut_off_empty_space`] left open, innermost first, once the rest of the
+/// node has been built: each gets its empty above leaf.
+fn close_cuts(out: &mut Layout, open: Vec<OpenCut>) -> Result<()> {
+    for cut in open.into_iter().rev() {
+        out.close_inner(cut.at, cut.axis, cut.position)?;
+        out.push_empty_leaf(cut.depth);
+    }
+    Ok(())
 }
 
 /// Builds the children of a node of `n` triangles at `depth` split at `split`, and the inner

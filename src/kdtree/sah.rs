@@ -50,25 +50,26 @@ impl CostModel {
         self.ci_over_ct * n as f32
     }
 
-    /// The cheapest plane of a node of `n` triangles in `cell`, from its sorted per-axis event
-    /// lists; `None` when no plane lies strictly inside the cell (a cell flat on every axis but
-    /// at most one, or extents overflowing f32).
+    /// The cheapest plane in `cell` among a small node's [`Candidates`]: every event position
+    /// strictly inside the cell; `None` when there is none (a cell flat on every axis but at
+    /// most one, or extents overflowing f32).
     ///
     /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
     /// `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where `P` are the children's surface areas over
-    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Only planes
-    /// strictly inside the cell are offered, so an empty side is never a flat, zero-volume cell
-    /// (which would earn the bonus for nothing, and could repeat forever).
+    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Each plane
+    /// is evaluated with the triangles lying in it on either side. Only planes strictly inside
+    /// the cell are offered, so an empty side is never a flat, zero-volume cell (which would
+    /// earn the bonus for nothing, and could repeat forever).
     ///
     /// Ties keep the first plane found (axes in order, positions ascending), and the below side
     /// for the triangles lying in the plane.
-    pub fn best_split(&self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) -> Option<Split> {
+    pub fn best_split(&self, candidates: &Candidates, cell: &Aabb) -> Option<Split> {
         let mut best: Option<Split> = None;
-        for (axis, list) in events.iter().enumerate() {
+        for (axis, list) in candidates.axes.iter().enumerate() {
             let Some(geometry) = AxisGeometry::new(cell, axis) else {
                 continue;
             };
-            if let Some(found) = self.sweep(list, n as u32, &geometry, axis) {
+            if let Some(found) = self.best_on_axis(list, &geometry, axis) {
                 if best.is_none_or(|b| found.cost < b.cost) {
                     best = Some(found);
                 }
@@ -147,58 +148,40 @@ impl CostModel {
         lambda * (p_below * nb + p_above * na)
     }
 
-    /// One sweep over an axis's sorted events (Algorithm 4). At each distinct position p,
-    /// with p⁻, p|, p⁺ the numbers of end, planar and start events there: `N_above −= p⁻ + p|`,
-    /// evaluate the plane with the planar triangles on either side, then `N_below += p⁺ + p|`.
-    /// Written as one pass with the plane evaluated where the position changes, and the counts
-    /// updated without branches on the event kind.
+    /// The cheapest of one axis's candidates strictly inside the cell.
     #[inline]
-    fn sweep(&self, list: &[Event], n: u32, g: &AxisGeometry, axis: usize) -> Option<Split> {
+    fn best_on_axis(&self, list: &[Candidate], g: &AxisGeometry, axis: usize) -> Option<Split> {
         let (lo_key, hi_key) = (key(g.lo), key(g.hi));
-        let weighted = |p_below, p_above, nb, na| self.weighted(p_below, p_above, nb, na);
-        let (mut n_below, mut n_above) = (0u32, n);
-        let (mut planars, mut joining_below) = (0u32, 0u32);
         let mut best_weighted = f32::INFINITY;
         let mut best = (0u32, true, 0u32, 0u32);
-        for (i, &e) in list.iter().enumerate() {
-            let k = kind(e);
-            n_above -= u32::from(k != START);
-            planars += u32::from(k == PLANAR);
-            joining_below += u32::from(k != END);
-            let here = pos_key(e);
-            let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
-            if next == here {
+        for c in list {
+            // Keys order like positions, so this is lo < p < hi.
+            if !(c.key > lo_key && c.key < hi_key) {
                 continue;
             }
-            // Keys order like positions, so this is lo < p < hi.
-            if here > lo_key && here < hi_key {
-                let (p_below, p_above) = g.areas(unkey(here));
-                let (nb, na) = (n_below as f32, n_above as f32);
-                let (w, planar_below) = if planars == 0 {
-                    (weighted(p_below, p_above, nb, na), true)
+            let (p_below, p_above) = g.areas(unkey(c.key));
+            let (nb, na) = (c.below as f32, c.above as f32);
+            let (w, planar_below) = if c.planar == 0 {
+                (self.weighted(p_below, p_above, nb, na), true)
+            } else {
+                let np = c.planar as f32;
+                let below = self.weighted(p_below, p_above, nb + np, na);
+                let above = self.weighted(p_below, p_above, nb, na + np);
+                if below <= above {
+                    (below, true)
                 } else {
-                    let np = planars as f32;
-                    let below = weighted(p_below, p_above, nb + np, na);
-                    let above = weighted(p_below, p_above, nb, na + np);
-                    if below <= above {
-                        (below, true)
-                    } else {
-                        (above, false)
-                    }
-                };
-                if w < best_weighted {
-                    best_weighted = w;
-                    let np = if planar_below {
-                        (planars, 0)
-                    } else {
-                        (0, planars)
-                    };
-                    best = (here, planar_below, n_below + np.0, n_above + np.1);
+                    (above, false)
                 }
+            };
+            if w < best_weighted {
+                best_weighted = w;
+                let (pb, pa) = if planar_below {
+                    (c.planar, 0)
+                } else {
+                    (0, c.planar)
+                };
+                best = (c.key, planar_below, c.below + pb, c.above + pa);
             }
-            n_below += joining_below;
-            joining_below = 0;
-            planars = 0;
         }
         (best_weighted < f32::INFINITY).then_some(Split {
             axis,
@@ -208,6 +191,66 @@ impl CostModel {
             below_count: best.2,
             above_count: best.3,
         })
+    }
+}
+
+/// A distinct event position on an axis of a small node, with the sweep's counts there.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Candidate {
+    /// The position's key.
+    key: u32,
+    /// Triangles entirely below (ending at or before the position, or flat before it).
+    below: u32,
+    /// Triangles entirely above (starting at or after it, or flat after it).
+    above: u32,
+    /// Triangles flat in it.
+    planar: u32,
+}
+
+/// A small node's candidate planes per axis, gathered once by the sweep and kept across the
+/// empty-space cuts of the node, which change its cell, not its triangles.
+#[derive(Default)]
+pub(super) struct Candidates {
+    axes: [Vec<Candidate>; 3],
+}
+
+impl Candidates {
+    /// Replaces the contents with the candidates of a node of `n` triangles with sorted
+    /// per-axis `events`, at positions strictly inside `cell`.
+    ///
+    /// One sweep per axis (Algorithm 4): at each distinct position p, with p⁻, p|, p⁺ the
+    /// numbers of end, planar and start events there, `N_above −= p⁻ + p|`, the candidate is
+    /// recorded, then `N_below += p⁺ + p|`. Written as one pass that records where the position
+    /// changes, with the counts updated without branches on the event kind.
+    pub fn gather(&mut self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) {
+        for (axis, (list, out)) in events.iter().zip(&mut self.axes).enumerate() {
+            out.clear();
+            let (lo_key, hi_key) = (key(cell.min[axis]), key(cell.max[axis]));
+            let (mut below, mut above) = (0u32, n as u32);
+            let (mut planar, mut joining_below) = (0u32, 0u32);
+            for (i, &e) in list.iter().enumerate() {
+                let k = kind(e);
+                above -= u32::from(k != START);
+                planar += u32::from(k == PLANAR);
+                joining_below += u32::from(k != END);
+                let here = pos_key(e);
+                let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
+                if next == here {
+                    continue;
+                }
+                if here > lo_key && here < hi_key {
+                    out.push(Candidate {
+                        key: here,
+                        below,
+                        above,
+                        planar,
+                    });
+                }
+                below += joining_below;
+                joining_below = 0;
+                planar = 0;
+            }
+        }
     }
 }
 
