@@ -199,9 +199,9 @@ impl CostModel {
 pub(super) struct Candidate {
     /// The position's key.
     key: u32,
-    /// Triangles entirely below (ending at or before the position, or flat before it).
+    /// Triangles reaching below it: starting before it, or flat before it.
     below: u32,
-    /// Triangles entirely above (starting at or after it, or flat after it).
+    /// Triangles reaching above it: ending after it, or flat after it.
     above: u32,
     /// Triangles flat in it.
     planar: u32,
@@ -343,11 +343,6 @@ impl Bins {
             }
         }
         bins
-    }
-
-    /// The union of the boxes.
-    pub fn union(&self) -> Aabb {
-        self.union
     }
 
     /// The position of boundary `j` (between bins `j − 1` and `j`) on `axis`.
