@@ -51,34 +51,26 @@ pub(super) fn split_clipped_bounds(
         (below, plane + clip.margin, false),
         (above, plane - clip.margin, true),
     ];
-    let vb = vertex_box(tri);
-    if cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all() {
-        // The common case, a triangle inside the cell: the clip to the cell is a no-op, and
-        // only the plane cuts the triangle; the parts' boxes come without a polygon.
-        let verts = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-        return sides.map(|(half, plane, keep_above)| {
-            let (lo, hi) = half_space_span(&verts, axis, plane, keep_above)?;
-            clip.rounded(lo, hi, &half)
-        });
-    }
-    let Some(poly) = clip.to_cell() else {
-        return [None, None];
+    let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+    // The common case is a triangle inside the cell: the clip to the cell is a no-op.
+    let poly = match clip.to_cell(cell) {
+        None => return [None, None],
+        Some(Err(Overflow)) => return [fallback(tri, &below), fallback(tri, &above)],
+        Some(Ok(None)) => None,
+        Some(Ok(Some(poly))) => Some(poly),
     };
-    let Ok(poly) = poly else {
-        return [fallback(tri, &below), fallback(tri, &above)];
-    };
+    let verts = poly.as_ref().map_or(&triangle[..], |p| &p.verts[..p.len]);
     sides.map(|(half, plane, keep_above)| {
-        let mut part = poly;
-        match part.clip(axis, plane, keep_above) {
-            Ok(()) => clip.bounds(&part, &half),
-            Err(Overflow) => fallback(tri, &half),
-        }
+        let (lo, hi) = half_space_span(verts, axis, plane, keep_above)?;
+        clip.rounded(lo, hi, &half)
     })
 }
 
 /// A triangle being clipped to a cell grown by the margin, in f64.
 struct Clip<'a> {
     tri: &'a Triangle,
+    /// The triangle's own box.
+    vertex_box: Aabb,
     /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
     margin: f64,
     /// The grown cell's corners.
@@ -107,21 +99,37 @@ impl<'a> Clip<'a> {
         let margin = magnitude * MARGIN;
         Clip {
             tri,
+            vertex_box: vertex_box(tri),
             margin,
             lo: cmin - margin,
             hi: cmax + margin,
         }
     }
 
-    /// The triangle clipped to the grown cell: `None` if nothing is left, `Err` on overflow.
-    fn to_cell(&self) -> Option<Result<Polygon, Overflow>> {
+    /// The triangle clipped to the grown `cell`: `None` if nothing is left, `Err` on overflow,
+    /// `Ok(None)` if the triangle lies inside `cell` (no vertex is cut off).
+    ///
+    /// A face the triangle's box does not cross is skipped without looking at the polygon:
+    /// clipped points lie in that box but for f64 rounding, far smaller than the margin.
+    fn to_cell(&self, cell: &Aabb) -> Option<Result<Option<Polygon>, Overflow>> {
+        let vb = &self.vertex_box;
+        if cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all() {
+            return Some(Ok(None));
+        }
         let mut poly = Polygon {
             verts: [DVec3::ZERO; MAX_POLYGON],
             len: 3,
         };
         poly.verts[..3].copy_from_slice(&[self.tri.v0, self.tri.v1, self.tri.v2].map(DVec3::from));
         for axis in 0..3 {
-            for (plane, keep_above) in [(self.lo[axis], true), (self.hi[axis], false)] {
+            let faces = [
+                (self.lo[axis], true, vb.min[axis] < cell.min[axis]),
+                (self.hi[axis], false, vb.max[axis] > cell.max[axis]),
+            ];
+            for (plane, keep_above, crossed) in faces {
+                if !crossed {
+                    continue;
+                }
                 if let Err(overflow) = poly.clip(axis, plane, keep_above) {
                     return Some(Err(overflow));
                 }
@@ -130,26 +138,13 @@ impl<'a> Clip<'a> {
                 }
             }
         }
-        Some(Ok(poly))
-    }
-
-    /// The f32 box of clipped polygon `poly`, rounded outward by the margin, within the
-    /// triangle's own box (exact: it keeps flat triangles flat) and `cell`; `None` if empty.
-    fn bounds(&self, poly: &Polygon, cell: &Aabb) -> Option<Aabb> {
-        let verts = &poly.verts[..poly.len];
-        let first = *verts.first()?;
-        let (mut pmin, mut pmax) = (first, first);
-        for &p in &verts[1..] {
-            pmin = pmin.min(p);
-            pmax = pmax.max(p);
-        }
-        self.rounded(pmin, pmax, cell)
+        Some(Ok(Some(poly)))
     }
 
     /// The f32 box of `[pmin, pmax]` rounded outward by the margin, within the triangle's own
     /// box and `cell`; `None` if empty.
     fn rounded(&self, pmin: DVec3, pmax: DVec3, cell: &Aabb) -> Option<Aabb> {
-        let exact = vertex_box(self.tri).intersection(*cell);
+        let exact = self.vertex_box.intersection(*cell);
         let mut b = Aabb::EMPTY;
         for axis in 0..3 {
             b.min[axis] = round_down(pmin[axis] - self.margin).max(exact.min[axis]);
@@ -182,11 +177,11 @@ impl Polygon {
     }
 }
 
-/// The span of the part of triangle `verts` where `p[axis] >= plane` (`keep_above`) or
-/// `<= plane`: the Sutherland–Hodgman step of [`clip_polygon`] on a triangle, with its points
-/// computed the same way but only their span kept; `None` if nothing is left.
+/// The span of the part of convex polygon `verts` where `p[axis] >= plane` (`keep_above`) or
+/// `<= plane`: the Sutherland–Hodgman step of [`clip_polygon`], with its points computed the
+/// same way but only their span kept; `None` if nothing is left.
 fn half_space_span(
-    verts: &[DVec3; 3],
+    verts: &[DVec3],
     axis: usize,
     plane: f64,
     keep_above: bool,
@@ -200,8 +195,8 @@ fn half_space_span(
     };
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     let mut any = false;
-    for i in 0..3 {
-        let (a, b) = (verts[i], verts[(i + 1) % 3]);
+    for (i, &a) in verts.iter().enumerate() {
+        let b = verts[(i + 1) % verts.len()];
         let (da, db) = (inside(a), inside(b));
         if da >= 0.0 {
             (lo, hi, any) = (lo.min(a), hi.max(a), true);
@@ -296,10 +291,15 @@ mod tests {
     /// The box of `tri ∩ cell` by the same steps as [`split_clipped_bounds`], without a split.
     fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
         let clip = Clip::new(tri, cell);
-        match clip.to_cell()? {
-            Ok(poly) => clip.bounds(&poly, cell),
-            Err(Overflow) => fallback(tri, cell),
-        }
+        let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+        let verts = match clip.to_cell(cell)? {
+            Err(Overflow) => return fallback(tri, cell),
+            Ok(None) => triangle.to_vec(),
+            Ok(Some(poly)) => poly.verts[..poly.len].to_vec(),
+        };
+        let lo = verts.iter().fold(DVec3::INFINITY, |m, &v| m.min(v));
+        let hi = verts.iter().fold(DVec3::NEG_INFINITY, |m, &v| m.max(v));
+        clip.rounded(lo, hi, cell)
     }
 
     #[test]
