@@ -46,29 +46,26 @@ pub(super) fn split_clipped_bounds(
     below.max[axis] = position;
     above.min[axis] = position;
     let clip = Clip::new(tri, cell);
-    let plane = f64::from(position);
-    let sides = [
-        (below, plane + clip.margin, false),
-        (above, plane - clip.margin, true),
-    ];
     let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
     // The common case is a triangle inside the cell: the clip to the cell is a no-op.
-    let poly = match clip.to_cell(cell) {
+    let poly = match clip.to_cell(&triangle, cell) {
         None => return [None, None],
         Some(Err(Overflow)) => return [fallback(tri, &below), fallback(tri, &above)],
         Some(Ok(None)) => None,
         Some(Ok(Some(poly))) => Some(poly),
     };
     let verts = poly.as_ref().map_or(&triangle[..], |p| &p.verts[..p.len]);
-    sides.map(|(half, plane, keep_above)| {
-        let (lo, hi) = half_space_span(verts, axis, plane, keep_above)?;
-        clip.rounded(lo, hi, &half)
-    })
+    let plane = f64::from(position);
+    let [below_span, above_span] =
+        split_spans(verts, axis, plane + clip.margin, plane - clip.margin);
+    [
+        below_span.and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
+        above_span.and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
+    ]
 }
 
 /// A triangle being clipped to a cell grown by the margin, in f64.
-struct Clip<'a> {
-    tri: &'a Triangle,
+struct Clip {
     /// The triangle's own box.
     vertex_box: Aabb,
     /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
@@ -88,18 +85,17 @@ struct Polygon {
 /// Rounding made a clipped polygon non-convex (it outgrew [`MAX_POLYGON`]).
 struct Overflow;
 
-impl<'a> Clip<'a> {
-    fn new(tri: &'a Triangle, cell: &Aabb) -> Self {
-        let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
-        let magnitude = [tri.v0, tri.v1, tri.v2]
+impl Clip {
+    fn new(tri: &Triangle, cell: &Aabb) -> Self {
+        let vertex_box = vertex_box(tri);
+        // The largest |coordinate| of the vertices is that of their box's corners (exact).
+        let magnitude = [vertex_box.min, vertex_box.max, cell.min, cell.max]
             .iter()
-            .map(|&v| DVec3::from(v))
-            .chain([cmin, cmax])
-            .fold(0.0f64, |m, v| m.max(v.abs().max_element()));
-        let margin = magnitude * MARGIN;
+            .fold(0.0f32, |m, v| m.max(v.abs().max_element()));
+        let margin = f64::from(magnitude) * MARGIN;
+        let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
         Clip {
-            tri,
-            vertex_box: vertex_box(tri),
+            vertex_box,
             margin,
             lo: cmin - margin,
             hi: cmax + margin,
@@ -111,7 +107,11 @@ impl<'a> Clip<'a> {
     ///
     /// A face the triangle's box does not cross is skipped without looking at the polygon:
     /// clipped points lie in that box but for f64 rounding, far smaller than the margin.
-    fn to_cell(&self, cell: &Aabb) -> Option<Result<Option<Polygon>, Overflow>> {
+    fn to_cell(
+        &self,
+        triangle: &[DVec3; 3],
+        cell: &Aabb,
+    ) -> Option<Result<Option<Polygon>, Overflow>> {
         let vb = &self.vertex_box;
         if cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all() {
             return Some(Ok(None));
@@ -120,7 +120,7 @@ impl<'a> Clip<'a> {
             verts: [DVec3::ZERO; MAX_POLYGON],
             len: 3,
         };
-        poly.verts[..3].copy_from_slice(&[self.tri.v0, self.tri.v1, self.tri.v2].map(DVec3::from));
+        poly.verts[..3].copy_from_slice(triangle);
         for axis in 0..3 {
             let faces = [
                 (self.lo[axis], true, vb.min[axis] < cell.min[axis]),
@@ -177,37 +177,39 @@ impl Polygon {
     }
 }
 
-/// The span of the part of convex polygon `verts` where `p[axis] >= plane` (`keep_above`) or
-/// `<= plane`: the Sutherland–Hodgman step of [`clip_polygon`], with its points computed the
-/// same way but only their span kept; `None` if nothing is left.
-fn half_space_span(
+/// The spans of the parts of convex polygon `verts` where `p[axis] <= below_plane` and where
+/// `p[axis] >= above_plane`: two Sutherland–Hodgman steps of [`clip_polygon`] in one pass,
+/// with their points computed the same way but only their spans kept; `None` for a part with
+/// nothing left.
+fn split_spans(
     verts: &[DVec3],
     axis: usize,
-    plane: f64,
-    keep_above: bool,
-) -> Option<(DVec3, DVec3)> {
-    let inside = |p: DVec3| {
-        if keep_above {
-            p[axis] - plane
-        } else {
-            plane - p[axis]
-        }
-    };
-    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    let mut any = false;
+    below_plane: f64,
+    above_plane: f64,
+) -> [Option<(DVec3, DVec3)>; 2] {
+    let planes = [below_plane, above_plane];
+    // Signed distances inside each half-space.
+    let inside = |p: DVec3| [below_plane - p[axis], p[axis] - above_plane];
+    let mut spans = [(DVec3::INFINITY, DVec3::NEG_INFINITY); 2];
+    let mut any = [false; 2];
     for (i, &a) in verts.iter().enumerate() {
         let b = verts[(i + 1) % verts.len()];
         let (da, db) = (inside(a), inside(b));
-        if da >= 0.0 {
-            (lo, hi, any) = (lo.min(a), hi.max(a), true);
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            let mut p = a + (b - a) * (da / (da - db));
-            p[axis] = plane;
-            (lo, hi, any) = (lo.min(p), hi.max(p), true);
+        for side in 0..2 {
+            let (span, da, db) = (&mut spans[side], da[side], db[side]);
+            if da >= 0.0 {
+                *span = (span.0.min(a), span.1.max(a));
+                any[side] = true;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let mut p = a + (b - a) * (da / (da - db));
+                p[axis] = planes[side];
+                *span = (span.0.min(p), span.1.max(p));
+                any[side] = true;
+            }
         }
     }
-    any.then_some((lo, hi))
+    [0, 1].map(|side| any[side].then_some(spans[side]))
 }
 
 /// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
@@ -292,7 +294,7 @@ mod tests {
     fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
         let clip = Clip::new(tri, cell);
         let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-        let verts = match clip.to_cell(cell)? {
+        let verts = match clip.to_cell(&triangle, cell)? {
             Err(Overflow) => return fallback(tri, cell),
             Ok(None) => triangle.to_vec(),
             Ok(Some(poly)) => poly.verts[..poly.len].to_vec(),
