@@ -1,5 +1,9 @@
-//! "Perfect splits" (Wald & Havran 2006, §4.3; Havran 2000): the box of the part of a triangle
-//! inside a cell, by Sutherland–Hodgman clipping of the triangle against the cell's six planes.
+//! "Perfect splits" (Wald & Havran 2006, §4.3; Havran 2000): the boxes of the parts of a
+//! triangle in the two halves of a split cell, by Sutherland–Hodgman clipping of the triangle
+//! against the cell's six planes and then against each side of the split plane. Only the faces
+//! the triangle's vertex box crosses are clipped against (none for a triangle inside the cell,
+//! the common case), and the last step, against the split plane, keeps only the span of the
+//! points it would make.
 //!
 //! The clip runs in f64 against the cell grown by a tiny relative margin, and the result is
 //! rounded outward to f32 and then clamped to the cell (clamping is exact). The f32 box therefore
@@ -169,8 +173,8 @@ impl Polygon {
             return Ok(());
         }
         let mut out = [DVec3::ZERO; MAX_POLYGON];
-        let n = clip_polygon(&self.verts[..self.len], &mut out, axis, plane, inside)
-            .ok_or(Overflow)?;
+        let n =
+            clip_polygon(&self.verts[..self.len], &mut out, axis, plane, inside).ok_or(Overflow)?;
         self.verts = out;
         self.len = n;
         Ok(())
@@ -313,8 +317,14 @@ mod tests {
         let [below, above] = split_clipped_bounds(&tri, &c, 0, 0.5);
         let below = below.unwrap();
         let above = above.unwrap();
-        assert_eq!(Some(below), clipped_bounds(&tri, &cell([-1.0, -1.0, -1.0], [0.5, 0.8, 1.0])));
-        assert_eq!(Some(above), clipped_bounds(&tri, &cell([0.5, -1.0, -1.0], [2.0, 0.8, 1.0])));
+        assert_eq!(
+            Some(below),
+            clipped_bounds(&tri, &cell([-1.0, -1.0, -1.0], [0.5, 0.8, 1.0]))
+        );
+        assert_eq!(
+            Some(above),
+            clipped_bounds(&tri, &cell([0.5, -1.0, -1.0], [2.0, 0.8, 1.0]))
+        );
         // Tolerance: a few f32 ulps from the outward rounding.
         assert!((below.max.y - 0.8).abs() < 1e-6 && (above.max.y - 0.5).abs() < 1e-6);
         assert_eq!((below.max.x, above.min.x), (0.5, 0.5));

@@ -307,8 +307,8 @@ pub(super) const BINS: usize = 32;
 
 /// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
 /// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
-/// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]`, the last
-/// bin closed. Kept across the empty-space cuts of a node, which change its cell, not its
+/// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]` (up to
+/// f32 rounding, which only blurs the counts), the last bin closed. Kept across the empty-space cuts of a node, which change its cell, not its
 /// triangles.
 pub(super) struct Bins {
     union: Aabb,
@@ -334,7 +334,12 @@ impl Bins {
         let (first, per_unit) = (union.min, Vec3::from(per_unit));
         let last = IVec3::splat(BINS as i32 - 1);
         // The casts saturate (negative to 0) and take NaN (0 · ∞ on a flat axis) to 0.
-        let bin = |x: Vec3| ((x - first) * per_unit).as_ivec3().min(last).max(IVec3::ZERO);
+        let bin = |x: Vec3| {
+            ((x - first) * per_unit)
+                .as_ivec3()
+                .min(last)
+                .max(IVec3::ZERO)
+        };
         for b in boxes {
             let (lo, hi) = (bin(b.min), bin(b.max));
             for axis in 0..3 {
