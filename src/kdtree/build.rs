@@ -71,6 +71,23 @@ struct Scratch {
     candidates: Candidates,
 }
 
+impl Scratch {
+    /// Fills [`Scratch::candidates`] with those of a small node with `boxes` in `cell`: the
+    /// boxes' events, sorted per axis, swept.
+    fn gather_candidates(&mut self, boxes: &[Aabb], cell: &Aabb) {
+        for list in &mut self.events {
+            list.clear();
+        }
+        for b in boxes {
+            push_box_events(&mut self.events, b);
+        }
+        for list in &mut self.events {
+            list.sort_unstable();
+        }
+        self.candidates.gather(&self.events, boxes.len(), cell);
+    }
+}
+
 impl KdTree {
     /// Builds an SAH kd-tree over `mesh`.
     ///
@@ -178,42 +195,24 @@ fn build_subtree(
 ) -> Result<()> {
     let n = node.ids.len();
     let mut open = Vec::new();
-    let split = if n > EXACT_MAX {
-        let bins = Bins::new(&node.boxes);
-        cut_off_empty_space(
-            context,
-            n,
-            &mut node.cell,
-            &mut depth,
-            out,
-            &mut open,
-            |cell| context.costs.best_binned_split(&bins, cell),
-        )?
-    } else {
-        if may_split(context, n, depth) {
-            let Scratch { events, candidates } = scratch;
-            for list in events.iter_mut() {
-                list.clear();
-            }
-            for b in &node.boxes {
-                push_box_events(events, b);
-            }
-            for list in events.iter_mut() {
-                list.sort_unstable();
-            }
-            candidates.gather(events, n, &node.cell);
-        }
-        let candidates = &scratch.candidates;
-        cut_off_empty_space(
-            context,
-            n,
-            &mut node.cell,
-            &mut depth,
-            out,
-            &mut open,
-            |cell| context.costs.best_split(candidates, cell),
-        )?
-    };
+    // Large nodes are searched by binning, small ones exactly.
+    let bins = (n > EXACT_MAX).then(|| Bins::new(&node.boxes));
+    if bins.is_none() && may_split(context, n, depth) {
+        scratch.gather_candidates(&node.boxes, &node.cell);
+    }
+    let candidates = &scratch.candidates;
+    let split = cut_off_empty_space(
+        context,
+        n,
+        &mut node.cell,
+        &mut depth,
+        out,
+        &mut open,
+        |cell| match &bins {
+            Some(bins) => context.costs.best_binned_split(bins, cell),
+            None => context.costs.best_split(candidates, cell),
+        },
+    )?;
     match split {
         None => make_leaf(node, depth, out)?,
         Some(split) => {
