@@ -355,3 +355,64 @@ impl Bins {
         self.union.min[axis] + j as f32 / self.per_unit[axis]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::events::push_box_events;
+
+    fn boxes_x(spans: &[(f32, f32)]) -> Vec<Aabb> {
+        spans
+            .iter()
+            .map(|&(lo, hi)| Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi, 1.0, 1.0)))
+            .collect()
+    }
+
+    #[test]
+    fn the_sweep_counts_triangles_reaching_each_side_and_lying_in_the_plane() {
+        // On x: [0, 1], [1, 2] and one flat at 1, in a cell [-1, 3] (y and z: [0, 1], the
+        // cell's own faces, so no candidate there).
+        let boxes = boxes_x(&[(0.0, 1.0), (1.0, 2.0), (1.0, 1.0)]);
+        let mut events: [Vec<Event>; 3] = Default::default();
+        for b in &boxes {
+            push_box_events(&mut events, b);
+        }
+        for list in &mut events {
+            list.sort_unstable();
+        }
+        let cell = Aabb::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0));
+        let mut candidates = Candidates::default();
+        candidates.gather(&events, 3, &cell);
+        let got: Vec<_> = candidates.axes[0]
+            .iter()
+            .map(|c| (unkey(c.key), c.below, c.above, c.planar))
+            .collect();
+        assert_eq!(got, [(0.0, 0, 3, 0), (1.0, 1, 1, 1), (2.0, 3, 0, 0)]);
+        assert!(candidates.axes[1].is_empty() && candidates.axes[2].is_empty());
+    }
+
+    #[test]
+    fn binned_search_cuts_empty_space_exactly_and_never_empties_a_boundary_side() {
+        let costs = CostModel::new(&BuildParams::default());
+        // Two clusters of 50 at either end of [0, 1] on x.
+        let spans: Vec<(f32, f32)> = (0..100)
+            .map(|i| {
+                let at = if i < 50 { 0.0 } else { 0.9 } + 0.001 * (i % 50) as f32;
+                (at, at + 0.05)
+            })
+            .collect();
+        let boxes = boxes_x(&spans);
+        let bins = Bins::new(&boxes);
+        // In a cell twice as wide, the empty space above goes first, cut at the union's face.
+        let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
+        let cut = costs.best_binned_split(&bins, &wide).unwrap();
+        assert_eq!((cut.axis, unkey(cut.pos_key)), (0, bins.union.max.x));
+        assert_eq!((cut.below_count, cut.above_count), (100, 0));
+        // In the union itself, the plane between the clusters, with exact counts there.
+        let split = costs.best_binned_split(&bins, &bins.union).unwrap();
+        let p = unkey(split.pos_key);
+        assert_eq!(split.axis, 0);
+        assert!(p > 0.1 && p < 0.9, "{p}");
+        assert_eq!((split.below_count, split.above_count), (50, 50));
+    }
+}
