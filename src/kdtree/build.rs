@@ -18,10 +18,11 @@
 //! O(n log [`EXACT_MAX`]) = O(n); the depth limit keeps the levels O(log N). (Keeping small
 //! nodes' event lists sorted through the splits instead, as Wald & Havran do, measured slower
 //! than sorting at most 6 · 64 events per node afresh.) The thresholds were chosen by measured
-//! build time and SAH tree cost on the shared scenes. With the
-//! `parallel` feature, the two children of a large node are built with `rayon::join` and their
-//! layouts stitched; the search and the classification do not depend on it, so the tree is
-//! the same with any number of threads.
+//! build time and SAH tree cost on the shared scenes.
+//!
+//! With the `parallel` feature, the two children of a large node are built with `rayon::join`
+//! and their layouts stitched; the search and the classification do not depend on it, so the
+//! tree is the same with any number of threads.
 
 use std::time::Instant;
 
@@ -195,9 +196,11 @@ fn build_subtree(
 ) -> Result<()> {
     let n = node.ids.len();
     let mut open = Vec::new();
-    // Large nodes are searched by binning, small ones exactly.
-    let bins = (n > EXACT_MAX).then(|| Bins::new(&node.boxes));
-    if bins.is_none() && may_split(context, n, depth) {
+    // Large nodes are searched by binning, small ones exactly; the search runs only while the
+    // node may be split, so neither is prepared otherwise.
+    let searched = may_split(context, n, depth);
+    let bins = (searched && n > EXACT_MAX).then(|| Bins::new(&node.boxes));
+    if searched && n <= EXACT_MAX {
         scratch.gather_candidates(&node.boxes, &node.cell);
     }
     let candidates = &scratch.candidates;
@@ -247,7 +250,7 @@ struct OpenCut {
 /// triangle lies on the other side (the counts are exact for such planes), so none is clipped
 /// and the node's triangles and boxes, and its plane counts, carry over unchanged; only the
 /// costs change with the cell. Cuts whose empty leaf comes after the rest of the node are
-/// left in `open` for [`close_cuts`].
+/// left in `open` for [`close_cuts`]. `best` is called only while the node may be split.
 fn cut_off_empty_space(
     context: &Context<'_>,
     n: usize,
