@@ -151,15 +151,13 @@ impl CostModel {
     /// The cheapest of one axis's candidates strictly inside the cell.
     #[inline]
     fn best_on_axis(&self, list: &[Candidate], g: &AxisGeometry, axis: usize) -> Option<Split> {
-        let (lo_key, hi_key) = (key(g.lo), key(g.hi));
         let mut best_weighted = f32::INFINITY;
-        let mut best = (0u32, true, 0u32, 0u32);
+        let mut best = (0.0f32, true, 0u32, 0u32);
         for c in list {
-            // Keys order like positions, so this is lo < p < hi.
-            if !(c.key > lo_key && c.key < hi_key) {
+            if !(c.pos > g.lo && c.pos < g.hi) {
                 continue;
             }
-            let (p_below, p_above) = g.areas(unkey(c.key));
+            let (p_below, p_above) = g.areas(c.pos);
             let (nb, na) = (c.below as f32, c.above as f32);
             let (w, planar_below) = if c.planar == 0 {
                 (self.weighted(p_below, p_above, nb, na), true)
@@ -180,12 +178,12 @@ impl CostModel {
                 } else {
                     (0, c.planar)
                 };
-                best = (c.key, planar_below, c.below + pb, c.above + pa);
+                best = (c.pos, planar_below, c.below + pb, c.above + pa);
             }
         }
         (best_weighted < f32::INFINITY).then_some(Split {
             axis,
-            pos_key: best.0,
+            pos_key: key(best.0),
             planar_below: best.1,
             cost: 1.0 + self.ci_over_ct * best_weighted,
             below_count: best.2,
@@ -197,8 +195,8 @@ impl CostModel {
 /// A distinct event position on an axis of a small node, with the sweep's counts there.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Candidate {
-    /// The position's key.
-    key: u32,
+    /// The position (never `-0.0`).
+    pos: f32,
     /// Triangles reaching below it: starting before it, or flat before it.
     below: u32,
     /// Triangles reaching above it: ending after it, or flat after it.
@@ -240,7 +238,7 @@ impl Candidates {
                 }
                 if here > lo_key && here < hi_key {
                     out.push(Candidate {
-                        key: here,
+                        pos: unkey(here),
                         below,
                         above,
                         planar,
@@ -385,7 +383,7 @@ mod tests {
         candidates.gather(&events, 3, &cell);
         let got: Vec<_> = candidates.axes[0]
             .iter()
-            .map(|c| (unkey(c.key), c.below, c.above, c.planar))
+            .map(|c| (c.pos, c.below, c.above, c.planar))
             .collect();
         assert_eq!(got, [(0.0, 0, 3, 0), (1.0, 1, 1, 1), (2.0, 3, 0, 0)]);
         assert!(candidates.axes[1].is_empty() && candidates.axes[2].is_empty());
