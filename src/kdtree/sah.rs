@@ -1,7 +1,9 @@
 //! The surface area heuristic and the event sweep that finds a node's best plane
-//! (Wald & Havran 2006, §3 and §4.2, Algorithm 4).
+//! (Wald & Havran 2006, §3 and §4.2, Algorithm 4), and the binned search used instead on large
+//! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
 
-use kdbeam_kernels::Aabb;
+use glam::IVec3;
+use kdbeam_kernels::{Aabb, Vec3};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
 use super::BuildParams;
@@ -26,6 +28,11 @@ pub(super) struct Split {
     pub planar_below: bool,
     /// Its SAH cost.
     pub cost: f32,
+    /// Triangles on the below side, the planar ones included when they go below. When it is
+    /// 0, every triangle goes above, unclipped, with its events unchanged.
+    pub below_count: u32,
+    /// Triangles on the above side, likewise.
+    pub above_count: u32,
 }
 
 impl CostModel {
@@ -43,42 +50,26 @@ impl CostModel {
         self.ci_over_ct * n as f32
     }
 
-    /// The cheapest plane of a node of `n` triangles in `cell`, from its sorted per-axis event
-    /// lists; `None` when no plane lies strictly inside the cell (a cell flat on every axis but
-    /// at most one, or extents overflowing f32).
+    /// The cheapest plane in `cell` among a small node's [`Candidates`]: every event position
+    /// strictly inside the cell; `None` when there is none (a cell flat on every axis but at
+    /// most one, or extents overflowing f32).
     ///
     /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
     /// `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where `P` are the children's surface areas over
-    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Only planes
-    /// strictly inside the cell are offered, so an empty side is never a flat, zero-volume cell
-    /// (which would earn the bonus for nothing, and could repeat forever).
+    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Each plane
+    /// is evaluated with the triangles lying in it on either side. Only planes strictly inside
+    /// the cell are offered, so an empty side is never a flat, zero-volume cell (which would
+    /// earn the bonus for nothing, and could repeat forever).
     ///
     /// Ties keep the first plane found (axes in order, positions ascending), and the below side
     /// for the triangles lying in the plane.
-    pub fn best_split(&self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) -> Option<Split> {
-        // Areas are computed from extents divided by the largest one, so that huge
-        // coordinates cannot overflow the products; the ratios P are unchanged.
-        let extent = cell.extent();
-        let scale = extent.max_element();
-        if !(scale > 0.0 && scale.is_finite()) {
-            return None;
-        }
-        let unit = extent / scale;
+    pub fn best_split(&self, candidates: &Candidates, cell: &Aabb) -> Option<Split> {
         let mut best: Option<Split> = None;
-        for (axis, list) in events.iter().enumerate() {
-            if unit[axis] <= 0.0 {
+        for (axis, list) in candidates.axes.iter().enumerate() {
+            let Some(geometry) = AxisGeometry::new(cell, axis) else {
                 continue;
-            }
-            let (a, b) = (unit[(axis + 1) % 3], unit[(axis + 2) % 3]);
-            let geometry = AxisGeometry {
-                ab: a * b,
-                a_plus_b: a + b,
-                inv_area: 1.0 / (a * b + (a + b) * unit[axis]),
-                inv_scale: 1.0 / scale,
-                lo: cell.min[axis],
-                hi: cell.max[axis],
             };
-            if let Some(found) = self.sweep(list, n as u32, &geometry, axis) {
+            if let Some(found) = self.best_on_axis(list, &geometry, axis) {
                 if best.is_none_or(|b| found.cost < b.cost) {
                     best = Some(found);
                 }
@@ -87,87 +78,339 @@ impl CostModel {
         best
     }
 
-    /// One sweep over an axis's sorted events (Algorithm 4). At each distinct position p,
-    /// with p⁻, p|, p⁺ the numbers of end, planar and start events there: `N_above −= p⁻ + p|`,
-    /// evaluate the plane with the planar triangles on either side, then `N_below += p⁺ + p|`.
-    /// Written as one pass with the plane evaluated where the position changes, and the counts
-    /// updated without branches on the event kind.
-    #[inline]
-    fn sweep(&self, list: &[Event], n: u32, g: &AxisGeometry, axis: usize) -> Option<Split> {
-        let (lo_key, hi_key) = (key(g.lo), key(g.hi));
-        // P_below = base + slope·(p − lo), P_above = base + slope·(hi − p). Differences from
-        // the cell's faces keep precision far from the origin.
-        let base = g.ab * g.inv_area;
-        let slope = g.a_plus_b * g.inv_scale * g.inv_area;
-        let empty_factor = self.empty_factor;
-        // λ · (P_b·N_b + P_a·N_a): the part of the cost that differs between planes. Counts
-        // are converted to f32 (exact below 2^24; beyond, rounding only blurs near-ties).
-        let weighted = |p_below: f32, p_above: f32, nb: f32, na: f32| {
-            let lambda = if nb == 0.0 || na == 0.0 {
-                empty_factor
-            } else {
-                1.0
-            };
-            lambda * (p_below * nb + p_above * na)
-        };
-        let (mut n_below, mut n_above) = (0u32, n);
-        let (mut planars, mut joining_below) = (0u32, 0u32);
-        let mut best_weighted = f32::INFINITY;
-        let mut best = (0u32, true);
-        for (i, &e) in list.iter().enumerate() {
-            let k = kind(e);
-            n_above -= u32::from(k != START);
-            planars += u32::from(k == PLANAR);
-            joining_below += u32::from(k != END);
-            let here = pos_key(e);
-            let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
-            if next == here {
+    /// The cheapest plane in `cell` among a binned node's candidates ([`Bins`]): per axis, the
+    /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
+    /// boundaries strictly between the union's faces, and the face above them all
+    /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
+    /// [`CostModel::best_split`].
+    ///
+    /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
+    /// (so that empty space is cut off exactly where the sweep would cut it), and at a boundary
+    /// an estimate that may count a triangle touching the plane on the wrong side. Only the
+    /// choice of plane is approximate: the split itself classifies and clips exactly. A boundary
+    /// never sees an empty side (the union's faces lie in the first and last bins), so
+    /// [`Split::below_count`] and [`Split::above_count`] are 0 only when exact.
+    ///
+    /// Ties keep the first plane found (axes in order, positions ascending). Triangles lying in
+    /// a plane go below, except at the union's lower face (where they go above, so that the
+    /// below side is empty).
+    pub fn best_binned_split(&self, bins: &Bins, cell: &Aabb) -> Option<Split> {
+        let mut best: Option<Split> = None;
+        let n = bins.count;
+        for axis in 0..3 {
+            let Some(g) = AxisGeometry::new(cell, axis) else {
                 continue;
-            }
-            // Keys order like positions, so this is lo < p < hi.
-            if here > lo_key && here < hi_key {
-                let p = unkey(here);
-                let p_below = base + slope * (p - g.lo);
-                let p_above = base + slope * (g.hi - p);
-                let (nb, na) = (n_below as f32, n_above as f32);
-                let (w, planar_below) = if planars == 0 {
-                    (weighted(p_below, p_above, nb, na), true)
-                } else {
-                    let np = planars as f32;
-                    let below = weighted(p_below, p_above, nb + np, na);
-                    let above = weighted(p_below, p_above, nb, na + np);
-                    if below <= above {
-                        (below, true)
-                    } else {
-                        (above, false)
-                    }
-                };
-                if w < best_weighted {
-                    best_weighted = w;
-                    best = (here, planar_below);
+            };
+            let (first, last) = (bins.union.min[axis], bins.union.max[axis]);
+            let mut offer = |p: f32, planar_below: bool, below: u32, above: u32| {
+                if !(p > g.lo && p < g.hi) {
+                    return;
+                }
+                let (p_below, p_above) = g.areas(p);
+                let w = self.weighted(p_below, p_above, below as f32, above as f32);
+                let cost = 1.0 + self.ci_over_ct * w;
+                if best.is_none_or(|b| cost < b.cost) {
+                    best = Some(Split {
+                        axis,
+                        pos_key: key(p),
+                        planar_below,
+                        cost,
+                        below_count: below,
+                        above_count: above,
+                    });
+                }
+            };
+            offer(first, false, 0, n);
+            let (mut below, mut above) = (0u32, n);
+            for j in 1..BINS {
+                below += bins.starts[axis][j - 1];
+                above -= bins.ends[axis][j - 1];
+                let p = bins.boundary(axis, j);
+                if p > first && p < last {
+                    offer(p, true, below, above);
                 }
             }
-            n_below += joining_below;
-            joining_below = 0;
-            planars = 0;
+            offer(last, true, n, 0);
+        }
+        best
+    }
+
+    /// `λ · (P_b·N_b + P_a·N_a)`: the part of a plane's cost that differs between planes, with
+    /// λ = `1 − empty_bonus` when a side is empty. Counts are converted to f32 (exact below
+    /// 2^24; beyond, rounding only blurs near-ties).
+    #[inline(always)]
+    fn weighted(&self, p_below: f32, p_above: f32, nb: f32, na: f32) -> f32 {
+        let lambda = if nb == 0.0 || na == 0.0 {
+            self.empty_factor
+        } else {
+            1.0
+        };
+        lambda * (p_below * nb + p_above * na)
+    }
+
+    /// The cheapest of one axis's candidates strictly inside the cell.
+    #[inline]
+    fn best_on_axis(&self, list: &[Candidate], g: &AxisGeometry, axis: usize) -> Option<Split> {
+        let mut best_weighted = f32::INFINITY;
+        let mut best = (0.0f32, true, 0u32, 0u32);
+        for c in list {
+            if !(c.pos > g.lo && c.pos < g.hi) {
+                continue;
+            }
+            let (p_below, p_above) = g.areas(c.pos);
+            let (nb, na) = (c.below as f32, c.above as f32);
+            let (w, planar_below) = if c.planar == 0 {
+                (self.weighted(p_below, p_above, nb, na), true)
+            } else {
+                let np = c.planar as f32;
+                let below = self.weighted(p_below, p_above, nb + np, na);
+                let above = self.weighted(p_below, p_above, nb, na + np);
+                if below <= above {
+                    (below, true)
+                } else {
+                    (above, false)
+                }
+            };
+            if w < best_weighted {
+                best_weighted = w;
+                let (pb, pa) = if planar_below {
+                    (c.planar, 0)
+                } else {
+                    (0, c.planar)
+                };
+                best = (c.pos, planar_below, c.below + pb, c.above + pa);
+            }
         }
         (best_weighted < f32::INFINITY).then_some(Split {
             axis,
-            pos_key: best.0,
+            pos_key: key(best.0),
             planar_below: best.1,
             cost: 1.0 + self.ci_over_ct * best_weighted,
+            below_count: best.2,
+            above_count: best.3,
         })
     }
 }
 
-/// What the cost of a plane on one axis needs: with `a`, `b` the other two extents and `w`
-/// this one's (all over the largest extent), SA(child) / SA(cell) =
+/// A distinct event position on an axis of a small node, with the sweep's counts there.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Candidate {
+    /// The position (never `-0.0`).
+    pos: f32,
+    /// Triangles reaching below it: starting before it, or flat before it.
+    below: u32,
+    /// Triangles reaching above it: ending after it, or flat after it.
+    above: u32,
+    /// Triangles flat in it.
+    planar: u32,
+}
+
+/// A small node's candidate planes per axis, gathered once by the sweep and kept across the
+/// empty-space cuts of the node, which change its cell, not its triangles.
+#[derive(Default)]
+pub(super) struct Candidates {
+    axes: [Vec<Candidate>; 3],
+}
+
+impl Candidates {
+    /// Replaces the contents with the candidates of a node of `n` triangles with sorted
+    /// per-axis `events`, at positions strictly inside `cell`.
+    ///
+    /// One sweep per axis (Algorithm 4): at each distinct position p, with p⁻, p|, p⁺ the
+    /// numbers of end, planar and start events there, `N_above −= p⁻ + p|`, the candidate is
+    /// recorded, then `N_below += p⁺ + p|`. Written as one pass that records where the position
+    /// changes, with the counts updated without branches on the event kind.
+    pub fn gather(&mut self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) {
+        for (axis, (list, out)) in events.iter().zip(&mut self.axes).enumerate() {
+            out.clear();
+            let (lo_key, hi_key) = (key(cell.min[axis]), key(cell.max[axis]));
+            let (mut below, mut above) = (0u32, n as u32);
+            let (mut planar, mut joining_below) = (0u32, 0u32);
+            for (i, &e) in list.iter().enumerate() {
+                let k = kind(e);
+                above -= u32::from(k != START);
+                planar += u32::from(k == PLANAR);
+                joining_below += u32::from(k != END);
+                let here = pos_key(e);
+                let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
+                if next == here {
+                    continue;
+                }
+                if here > lo_key && here < hi_key {
+                    out.push(Candidate {
+                        pos: unkey(here),
+                        below,
+                        above,
+                        planar,
+                    });
+                }
+                below += joining_below;
+                joining_below = 0;
+                planar = 0;
+            }
+        }
+    }
+}
+
+/// What the cost of a plane on one axis of a cell needs: with `a`, `b` the other two extents
+/// and `w` this one's (all over the largest extent, so that huge coordinates cannot overflow
+/// the products; the ratios are unchanged), SA(child) / SA(cell) =
 /// `(ab + (a + b)·w_child) / (ab + (a + b)·w)`.
 struct AxisGeometry {
-    ab: f32,
-    a_plus_b: f32,
-    inv_area: f32,
-    inv_scale: f32,
+    /// `ab / SA`: a child's area ratio at zero width.
+    base: f32,
+    /// `(a + b) / (scale · SA)`: its growth per unit of width.
+    slope: f32,
     lo: f32,
     hi: f32,
+}
+
+impl AxisGeometry {
+    /// The geometry of `axis` of `cell`; `None` when the cell is flat on that axis or its
+    /// extents are not finite and positive (no plane lies strictly inside).
+    #[inline(always)]
+    fn new(cell: &Aabb, axis: usize) -> Option<Self> {
+        let extent = cell.extent();
+        let scale = extent.max_element();
+        if !(scale > 0.0 && scale.is_finite()) {
+            return None;
+        }
+        let unit = extent / scale;
+        if unit[axis] <= 0.0 {
+            return None;
+        }
+        let (a, b) = (unit[(axis + 1) % 3], unit[(axis + 2) % 3]);
+        let inv_area = 1.0 / (a * b + (a + b) * unit[axis]);
+        Some(AxisGeometry {
+            base: a * b * inv_area,
+            slope: (a + b) * (1.0 / scale) * inv_area,
+            lo: cell.min[axis],
+            hi: cell.max[axis],
+        })
+    }
+
+    /// `(P_below, P_above)` of the plane at `p`. Differences from the cell's faces keep
+    /// precision far from the origin.
+    #[inline(always)]
+    fn areas(&self, p: f32) -> (f32, f32) {
+        (
+            self.base + self.slope * (p - self.lo),
+            self.base + self.slope * (self.hi - p),
+        )
+    }
+}
+
+/// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
+pub(super) const BINS: usize = 32;
+
+/// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
+/// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
+/// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]` (up to
+/// f32 rounding, which only blurs the counts), the last bin closed. Kept across the empty-space cuts of a node, which change its cell, not its
+/// triangles.
+pub(super) struct Bins {
+    union: Aabb,
+    /// Bins per unit of length, per axis (infinite on a flat axis).
+    per_unit: [f32; 3],
+    starts: [[u32; BINS]; 3],
+    ends: [[u32; BINS]; 3],
+    count: u32,
+}
+
+impl Bins {
+    /// The counts of non-empty boxes `boxes` (at most 2³² − 1).
+    pub fn new(boxes: &[Aabb]) -> Bins {
+        let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+        let per_unit = (BINS as f32 / union.extent()).to_array();
+        let mut bins = Bins {
+            union,
+            per_unit,
+            starts: [[0; BINS]; 3],
+            ends: [[0; BINS]; 3],
+            count: boxes.len() as u32,
+        };
+        let (first, per_unit) = (union.min, Vec3::from(per_unit));
+        let last = IVec3::splat(BINS as i32 - 1);
+        // The casts saturate (negative to 0) and take NaN (0 · ∞ on a flat axis) to 0.
+        let bin = |x: Vec3| {
+            ((x - first) * per_unit)
+                .as_ivec3()
+                .min(last)
+                .max(IVec3::ZERO)
+        };
+        for b in boxes {
+            let (lo, hi) = (bin(b.min), bin(b.max));
+            for axis in 0..3 {
+                bins.starts[axis][lo[axis] as usize] += 1;
+                bins.ends[axis][hi[axis] as usize] += 1;
+            }
+        }
+        bins
+    }
+
+    /// The position of boundary `j` (between bins `j − 1` and `j`) on `axis`.
+    fn boundary(&self, axis: usize, j: usize) -> f32 {
+        self.union.min[axis] + j as f32 / self.per_unit[axis]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kdtree::events::push_box_events;
+
+    fn boxes_x(spans: &[(f32, f32)]) -> Vec<Aabb> {
+        spans
+            .iter()
+            .map(|&(lo, hi)| Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi, 1.0, 1.0)))
+            .collect()
+    }
+
+    #[test]
+    fn the_sweep_counts_triangles_reaching_each_side_and_lying_in_the_plane() {
+        // On x: [0, 1], [1, 2] and one flat at 1, in a cell [-1, 3] (y and z: [0, 1], the
+        // cell's own faces, so no candidate there).
+        let boxes = boxes_x(&[(0.0, 1.0), (1.0, 2.0), (1.0, 1.0)]);
+        let mut events: [Vec<Event>; 3] = Default::default();
+        for b in &boxes {
+            push_box_events(&mut events, b);
+        }
+        for list in &mut events {
+            list.sort_unstable();
+        }
+        let cell = Aabb::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0));
+        let mut candidates = Candidates::default();
+        candidates.gather(&events, 3, &cell);
+        let got: Vec<_> = candidates.axes[0]
+            .iter()
+            .map(|c| (c.pos, c.below, c.above, c.planar))
+            .collect();
+        assert_eq!(got, [(0.0, 0, 3, 0), (1.0, 1, 1, 1), (2.0, 3, 0, 0)]);
+        assert!(candidates.axes[1].is_empty() && candidates.axes[2].is_empty());
+    }
+
+    #[test]
+    fn binned_search_cuts_empty_space_exactly_and_never_empties_a_boundary_side() {
+        let costs = CostModel::new(&BuildParams::default());
+        // Two clusters of 50 at either end of [0, 1] on x.
+        let spans: Vec<(f32, f32)> = (0..100)
+            .map(|i| {
+                let at = if i < 50 { 0.0 } else { 0.9 } + 0.001 * (i % 50) as f32;
+                (at, at + 0.05)
+            })
+            .collect();
+        let boxes = boxes_x(&spans);
+        let bins = Bins::new(&boxes);
+        // In a cell twice as wide, the empty space above goes first, cut at the union's face.
+        let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
+        let cut = costs.best_binned_split(&bins, &wide).unwrap();
+        assert_eq!((cut.axis, unkey(cut.pos_key)), (0, bins.union.max.x));
+        assert_eq!((cut.below_count, cut.above_count), (100, 0));
+        // In the union itself, the plane between the clusters, with exact counts there.
+        let split = costs.best_binned_split(&bins, &bins.union).unwrap();
+        let p = unkey(split.pos_key);
+        assert_eq!(split.axis, 0);
+        assert!(p > 0.1 && p < 0.9, "{p}");
+        assert_eq!((split.below_count, split.above_count), (50, 50));
+    }
 }
