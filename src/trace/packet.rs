@@ -348,26 +348,14 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
         } else {
             let leaf = &tree.leaves()[node.leaf_record() as usize];
             if leaf.count > 0 {
-                counters.leaf_visits += 1;
-                let rays = u64::from(mask.count_ones());
-                counters.ray_leaf_visits += rays;
-                counters.potential_tests += rays * u64::from(leaf.count);
-                #[cfg(feature = "stats")]
-                {
-                    counters.active_rays[rays as usize] += 1;
-                }
-                done |= visitor.visit(
-                    l,
-                    p,
-                    LeafVisit {
-                        triangles: tree.leaf_triangles(leaf),
-                        bounds: &leaf.bounds,
-                        mask,
-                        packet_mask,
-                        scene_bound,
-                    },
-                    counters,
-                );
+                let visit = LeafVisit {
+                    triangles: tree.leaf_triangles(leaf),
+                    bounds: &leaf.bounds,
+                    mask,
+                    packet_mask,
+                    scene_bound,
+                };
+                done |= visit_leaf(l, p, visit, visitor, counters);
             }
         }
         if descended {
@@ -549,26 +537,14 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
                 0
             };
             if active != 0 {
-                counters.leaf_visits += 1;
-                let rays = u64::from(active.count_ones());
-                counters.ray_leaf_visits += rays;
-                counters.potential_tests += rays * u64::from(leaf.count);
-                #[cfg(feature = "stats")]
-                {
-                    counters.active_rays[rays as usize] += 1;
-                }
-                done |= visitor.visit(
-                    l,
-                    p,
-                    LeafVisit {
-                        triangles: tree.leaf_triangles(leaf),
-                        bounds: &leaf.bounds,
-                        mask: active,
-                        packet_mask: live_mask,
-                        scene_bound,
-                    },
-                    counters,
-                );
+                let visit = LeafVisit {
+                    triangles: tree.leaf_triangles(leaf),
+                    bounds: &leaf.bounds,
+                    mask: active,
+                    packet_mask: live_mask,
+                    scene_bound,
+                };
+                done |= visit_leaf(l, p, visit, visitor, counters);
             }
         }
         // Pop the next cell that some ray still needs: one entered before its best hit.
@@ -674,6 +650,27 @@ fn split_range(split: f32, [o_min, o_max]: [f32; 2], [inv_min, inv_max]: [f32; 2
         range = (range.0.min(t), range.1.max(t));
     }
     range
+}
+
+/// Counts a leaf visit of the rays of `visit.mask` and hands it to `visitor`; returns the rays
+/// the visitor has finished.
+#[inline(always)]
+fn visit_leaf<L: Lanes, V: PacketVisitor<L>>(
+    l: L,
+    p: &RayPacket,
+    visit: LeafVisit<'_>,
+    visitor: &mut V,
+    counters: &mut PacketCounters,
+) -> u64 {
+    counters.leaf_visits += 1;
+    let rays = u64::from(visit.mask.count_ones());
+    counters.ray_leaf_visits += rays;
+    counters.potential_tests += rays * visit.triangles.ids.len() as u64;
+    #[cfg(feature = "stats")]
+    {
+        counters.active_rays[rays as usize] += 1;
+    }
+    visitor.visit(l, p, visit, counters)
 }
 
 /// The per-ray intervals of a traversal stack: 32 KiB, kept per thread rather than zeroed on
