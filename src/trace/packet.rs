@@ -123,21 +123,23 @@ pub(crate) fn group_count<L: Lanes>(len: usize) -> usize {
     len.div_ceil(L::WIDTH)
 }
 
+/// Lanes `b..b + L::WIDTH` of three per-axis columns (origins, directions or reciprocals).
+#[inline(always)]
+fn load_axes<L: Lanes>(l: L, columns: &[Column; 3], b: usize) -> [L::F32; 3] {
+    [
+        l.load(&columns[0][b..]),
+        l.load(&columns[1][b..]),
+        l.load(&columns[2][b..]),
+    ]
+}
+
 /// The rays of group `g`.
 #[inline(always)]
 pub(crate) fn lane_rays<L: Lanes>(l: L, p: &RayPacket, g: usize) -> LaneRays<L> {
     let b = g * L::WIDTH;
     LaneRays {
-        org: [
-            l.load(&p.org[0][b..]),
-            l.load(&p.org[1][b..]),
-            l.load(&p.org[2][b..]),
-        ],
-        dir: [
-            l.load(&p.dir[0][b..]),
-            l.load(&p.dir[1][b..]),
-            l.load(&p.dir[2][b..]),
-        ],
+        org: load_axes(l, &p.org, b),
+        dir: load_axes(l, &p.dir, b),
     }
 }
 
@@ -262,16 +264,8 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             continue;
         }
         let b = g * L::WIDTH;
-        let org = [
-            l.load(&p.org[0][b..]),
-            l.load(&p.org[1][b..]),
-            l.load(&p.org[2][b..]),
-        ];
-        let iv = [
-            l.load(&inv[0][b..]),
-            l.load(&inv[1][b..]),
-            l.load(&inv[2][b..]),
-        ];
+        let org = load_axes(l, &p.org, b);
+        let iv = load_axes(l, &inv, b);
         let (hit, tn, tf) = slab::slab_lanes(
             l,
             &org,
@@ -599,16 +593,8 @@ fn rays_in_box<L: Lanes>(
             continue;
         }
         let b = g * L::WIDTH;
-        let org = [
-            l.load(&p.org[0][b..]),
-            l.load(&p.org[1][b..]),
-            l.load(&p.org[2][b..]),
-        ];
-        let iv = [
-            l.load(&inv[0][b..]),
-            l.load(&inv[1][b..]),
-            l.load(&inv[2][b..]),
-        ];
+        let org = load_axes(l, &p.org, b);
+        let iv = load_axes(l, inv, b);
         let err = (org[0] * iv[0])
             .abs()
             .max((org[1] * iv[1]).abs())
