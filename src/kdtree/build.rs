@@ -32,6 +32,7 @@ use super::clip::split_clipped_bounds;
 use super::events::{push_box_events, unkey, Event};
 use super::layout::Layout;
 use super::sah::{Bins, Candidates, CostModel, Split};
+use super::stats::sah_cost;
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
 
@@ -148,7 +149,11 @@ impl KdTree {
             .map(|&id| mesh_triangles[id as usize])
             .collect();
         let ks_triangles: Vec<KsTriangle> = triangles.iter().map(KsTriangle::from).collect();
+        let build_time = started.elapsed();
         let leaves = out.nodes.iter().filter(|n| n.is_leaf()).count();
+        let sah_cost = sah_cost(&out.nodes, bounds, params.ci_over_ct, |record| {
+            out.leaves[record as usize].count
+        });
         let stats = BuildStats {
             triangles: n,
             nodes: out.nodes.len(),
@@ -160,7 +165,8 @@ impl KdTree {
                 + out.leaves.len() * size_of::<LeafRecord>()
                 + out.ids.len()
                     * (size_of::<Triangle>() + size_of::<KsTriangle>() + size_of::<u32>()),
-            build_time: started.elapsed(),
+            sah_cost,
+            build_time,
         };
         Ok(KdTree {
             nodes: out.nodes,

@@ -50,6 +50,10 @@ struct Row {
     setting: String,
     threads: usize,
     build_ms: f64,
+    /// Mesh triangles built per second, in millions.
+    build_mtris_per_s: f64,
+    /// The kd-tree's SAH cost ([`kdbeam::BuildStats::sah_cost`]); none for Embree.
+    sah_cost: Option<f64>,
     frame_ms: f64,
     build_plus_frame_ms: f64,
 }
@@ -66,13 +70,15 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
-            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11} {:>11} {:>13}",
+            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11} {:>10} {:>9} {:>11} {:>13}",
             "scene",
             "triangles",
             "struct",
             "setting",
             "threads",
             "build ms",
+            "M tri/s",
+            "SAH cost",
             "frame ms",
             "build+frame"
         );
@@ -80,13 +86,15 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     for scene in scenes {
         let (name, mesh) = load_scene(scene)?;
         let camera = Camera::standard(&mesh.bounds(), args.size.0, args.size.1);
-        let row = |structure, setting, build: f64, frame: f64| Row {
+        let row = |structure, setting, build: f64, sah_cost, frame: f64| Row {
             scene: name.clone(),
             triangles: mesh.triangle_count(),
             structure,
             setting,
             threads: args.threads,
             build_ms: 1e3 * build,
+            build_mtris_per_s: mesh.triangle_count() as f64 / build / 1e6,
+            sah_cost,
             frame_ms: 1e3 * frame,
             build_plus_frame_ms: 1e3 * (build + frame),
         };
@@ -96,22 +104,29 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
                 ..BuildParams::default()
             };
             params.validate()?;
-            let (build, frame) = pool.install(|| -> kdbeam::Result<(f64, f64)> {
-                let build = median_seconds(args.reps, || {
-                    let start = Instant::now();
-                    KdTree::build(&mesh, &params)?;
-                    Ok(start.elapsed().as_secs_f64())
+            let (build, sah_cost, frame) =
+                pool.install(|| -> kdbeam::Result<(f64, f64, f64)> {
+                    let build = median_seconds(args.reps, || {
+                        let start = Instant::now();
+                        KdTree::build(&mesh, &params)?;
+                        Ok(start.elapsed().as_secs_f64())
+                    })?;
+                    let tree = KdTree::build(&mesh, &params)?;
+                    let tracer = Tracer::new(&tree).with_packet(shape);
+                    render::trace_primary(&tracer, &camera, &|_| {});
+                    let frame = median_seconds(args.reps, || {
+                        Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
+                    })?;
+                    Ok((build, tree.stats().sah_cost, frame))
                 })?;
-                let tree = KdTree::build(&mesh, &params)?;
-                let tracer = Tracer::new(&tree).with_packet(shape);
-                render::trace_primary(&tracer, &camera, &|_| {});
-                let frame = median_seconds(args.reps, || {
-                    Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
-                })?;
-                Ok((build, frame))
-            })?;
             print_row(
-                &row("kdtree", format!("ci_over_ct={ci_over_ct}"), build, frame),
+                &row(
+                    "kdtree",
+                    format!("ci_over_ct={ci_over_ct}"),
+                    build,
+                    Some(sah_cost),
+                    frame,
+                ),
                 args.json,
             );
         }
@@ -142,6 +157,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
                         "embree",
                         format!("quality={}", quality.name()),
                         build,
+                        None,
                         frame,
                     ),
                     args.json,
@@ -155,13 +171,15 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11.1} {:>11.1} {:>13.1}",
+            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11.1} {:>10.2} {:>9} {:>11.1} {:>13.1}",
             r.scene,
             r.triangles,
             r.structure,
             r.setting,
             r.threads,
             r.build_ms,
+            r.build_mtris_per_s,
+            r.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
             r.frame_ms,
             r.build_plus_frame_ms
         )
