@@ -24,6 +24,7 @@
 //! and their layouts stitched; the search and the classification do not depend on it, so the
 //! tree is the same with any number of threads.
 
+use std::ops::Range;
 use std::time::Instant;
 
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
@@ -46,12 +47,39 @@ const EXACT_MAX: usize = 64;
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
 
-/// A node waiting to be built: its triangles (mesh ids), their boxes clipped to its cell (in
-/// the same order), and its cell.
+/// A node waiting to be built: its run of the thread's [`Refs`], its cell, and the union of its
+/// boxes (which lies inside the cell).
 struct BoxNode {
-    ids: Vec<u32>,
-    boxes: Vec<Aabb>,
+    refs: Range<usize>,
     cell: Aabb,
+    union: Aabb,
+}
+
+/// One thread's triangle references, used as a stack: a node's references are a run of it,
+/// its children's are pushed above them when it is split, and a subtree's are popped when it
+/// has been built. No allocation per node, and each node's references lie together in memory.
+#[derive(Default)]
+struct Refs {
+    /// Mesh ids.
+    ids: Vec<u32>,
+    /// The triangles' boxes clipped to their node's cell, in the same order.
+    boxes: Vec<Aabb>,
+}
+
+impl Refs {
+    fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    fn push(&mut self, id: u32, b: Aabb) {
+        self.ids.push(id);
+        self.boxes.push(b);
+    }
+
+    fn truncate(&mut self, len: usize) {
+        self.ids.truncate(len);
+        self.boxes.truncate(len);
+    }
 }
 
 /// What stays the same for the whole build.
@@ -66,28 +94,34 @@ struct Context<'a> {
     parallel: bool,
 }
 
-/// Per-thread buffers, reused by every small node the thread searches.
+/// Per-thread buffers, reused by every node the thread builds.
 #[derive(Default)]
 struct Scratch {
+    refs: Refs,
+    /// A split's above references, until the below ones have been pushed.
+    above: Refs,
     events: [Vec<Event>; 3],
     candidates: Candidates,
 }
 
-impl Scratch {
-    /// Fills [`Scratch::candidates`] with those of a small node with `boxes` in `cell`: the
-    /// boxes' events, sorted per axis, swept.
-    fn gather_candidates(&mut self, boxes: &[Aabb], cell: &Aabb) {
-        for list in &mut self.events {
-            list.clear();
-        }
-        for b in boxes {
-            push_box_events(&mut self.events, b);
-        }
-        for list in &mut self.events {
-            list.sort_unstable();
-        }
-        self.candidates.gather(&self.events, boxes.len(), cell);
+/// Fills `candidates` with those of a small node with `boxes` in `cell`: the boxes' events,
+/// sorted per axis in `events`, swept.
+fn gather_candidates(
+    events: &mut [Vec<Event>; 3],
+    candidates: &mut Candidates,
+    boxes: &[Aabb],
+    cell: &Aabb,
+) {
+    for list in events.iter_mut() {
+        list.clear();
     }
+    for b in boxes {
+        push_box_events(events, b);
+    }
+    for list in events.iter_mut() {
+        list.sort_unstable();
+    }
+    candidates.gather(events, boxes.len(), cell);
 }
 
 impl KdTree {
@@ -139,8 +173,9 @@ impl KdTree {
             parallel: rayon::current_num_threads() > 1,
         };
         let mut layout = Layout::default();
-        let root = root_node(&context, bounds);
-        build_subtree(&context, root, 0, &mut Scratch::default(), &mut layout)?;
+        let mut scratch = Scratch::default();
+        let root = root_node(&context, bounds, &mut scratch.refs);
+        build_subtree(&context, root, 0, &mut scratch, &mut layout)?;
         let out = layout.finish();
 
         let triangles: Vec<Triangle> = out
@@ -181,18 +216,25 @@ impl KdTree {
     }
 }
 
-/// The root: every triangle with its vertex box.
-fn root_node(context: &Context<'_>, cell: Aabb) -> BoxNode {
-    let boxes = context
-        .triangles
-        .iter()
-        .map(|t| Aabb::from_points([t.v0, t.v1, t.v2]))
-        .collect();
-    let ids = (0..context.triangles.len() as u32).collect();
-    BoxNode { ids, boxes, cell }
+/// The root: every triangle with its vertex box, pushed on `refs`.
+fn root_node(context: &Context<'_>, cell: Aabb, refs: &mut Refs) -> BoxNode {
+    refs.boxes.extend(
+        context
+            .triangles
+            .iter()
+            .map(|t| Aabb::from_points([t.v0, t.v1, t.v2])),
+    );
+    refs.ids.extend(0..context.triangles.len() as u32);
+    let union = refs.boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+    BoxNode {
+        refs: 0..refs.len(),
+        cell,
+        union,
+    }
 }
 
-/// Builds `node` at `depth` and everything below it into `out`, depth first.
+/// Builds `node` at `depth` and everything below it into `out`, depth first; pops the
+/// references its children pushed.
 fn build_subtree(
     context: &Context<'_>,
     mut node: BoxNode,
@@ -200,14 +242,18 @@ fn build_subtree(
     scratch: &mut Scratch,
     out: &mut Layout,
 ) -> Result<()> {
-    let n = node.ids.len();
+    let n = node.refs.len();
     let mut open = Vec::new();
     // Large nodes are searched by binning, small ones exactly; the search runs only while the
     // node may be split, so neither is prepared otherwise.
     let searched = may_split(context, n, depth);
-    let bins = (searched && n > EXACT_MAX).then(|| Bins::new(&node.boxes));
+    let boxes = &scratch.refs.boxes[node.refs.clone()];
+    let bins = (searched && n > EXACT_MAX).then(|| Bins::new(boxes, node.union));
     if searched && n <= EXACT_MAX {
-        scratch.gather_candidates(&node.boxes, &node.cell);
+        let Scratch {
+            events, candidates, ..
+        } = scratch;
+        gather_candidates(events, candidates, boxes, &node.cell);
     }
     let candidates = &scratch.candidates;
     let split = cut_off_empty_space(
@@ -223,10 +269,12 @@ fn build_subtree(
         },
     )?;
     match split {
-        None => make_leaf(node, depth, out)?,
+        None => make_leaf(&node, &mut scratch.refs, depth, out)?,
         Some(split) => {
-            let (below, above) = split_boxes(context, node, &split);
+            let mark = scratch.refs.len();
+            let (below, above) = split_boxes(context, &node, &split, scratch);
             build_children(context, below, above, &split, n, depth, scratch, out)?;
+            scratch.refs.truncate(mark);
         }
     }
     close_cuts(out, open)
@@ -321,12 +369,32 @@ fn build_children(
     let position = unkey(split.pos_key);
     #[cfg(feature = "parallel")]
     if context.parallel && n > PARALLEL_MIN_TRIANGLES {
+        // The above child moves to a stack of its own, for the other thread.
+        let mut above_scratch = Scratch::default();
+        let refs = &scratch.refs;
+        above_scratch
+            .refs
+            .ids
+            .extend_from_slice(&refs.ids[above.refs.clone()]);
+        above_scratch
+            .refs
+            .boxes
+            .extend_from_slice(&refs.boxes[above.refs.clone()]);
+        let above = BoxNode {
+            refs: 0..above_scratch.refs.len(),
+            ..above
+        };
         let (mut below_out, mut above_out) = (Layout::default(), Layout::default());
         let (built_below, built_above) = rayon::join(
             || build_subtree(context, below, depth + 1, scratch, &mut below_out),
             || {
-                let mut scratch = Scratch::default();
-                build_subtree(context, above, depth + 1, &mut scratch, &mut above_out)
+                build_subtree(
+                    context,
+                    above,
+                    depth + 1,
+                    &mut above_scratch,
+                    &mut above_out,
+                )
             },
         );
         built_below?;
@@ -345,16 +413,16 @@ fn build_children(
     build_subtree(context, above, depth + 1, scratch, out)
 }
 
-/// Emits `node` as a leaf: its ids sorted ascending, its box the union of its triangles'
-/// clipped boxes (which lie inside the cell).
-fn make_leaf(mut node: BoxNode, depth: u32, out: &mut Layout) -> Result<()> {
-    if node.ids.is_empty() {
+/// Emits `node` as a leaf: its ids (in `refs`) sorted ascending, its box the union of its
+/// triangles' clipped boxes (which lies inside the cell).
+fn make_leaf(node: &BoxNode, refs: &mut Refs, depth: u32, out: &mut Layout) -> Result<()> {
+    if node.refs.is_empty() {
         out.push_empty_leaf(depth);
         return Ok(());
     }
-    let bounds = node.boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
-    node.ids.sort_unstable();
-    out.push_leaf(depth, &node.ids, bounds)
+    let ids = &mut refs.ids[node.refs.clone()];
+    ids.sort_unstable();
+    out.push_leaf(depth, ids, node.union)
 }
 
 /// Where a triangle goes at a split.
@@ -389,47 +457,63 @@ fn side_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> Side {
 
 /// Splits `node` at `split` (which has triangles on both sides): one-sided triangles go to
 /// their side with their boxes, straddling ones are clipped to each child cell (and left out
-/// of a child they do not meet).
-fn split_boxes(context: &Context<'_>, node: BoxNode, split: &Split) -> (BoxNode, BoxNode) {
+/// of a child they do not meet). The children's references are pushed on `scratch.refs`,
+/// below then above.
+fn split_boxes(
+    context: &Context<'_>,
+    node: &BoxNode,
+    split: &Split,
+    scratch: &mut Scratch,
+) -> (BoxNode, BoxNode) {
     let axis = split.axis;
     let p = unkey(split.pos_key);
     let (mut below_cell, mut above_cell) = (node.cell, node.cell);
     below_cell.max[axis] = p;
     above_cell.min[axis] = p;
-    // The counts are estimates for a binned plane; room for some straddlers.
-    let child = |count: u32, cell| {
-        let capacity = count as usize + count as usize / 8;
-        BoxNode {
-            ids: Vec::with_capacity(capacity),
-            boxes: Vec::with_capacity(capacity),
-            cell,
-        }
-    };
-    let mut below = child(split.below_count, below_cell);
-    let mut above = child(split.above_count, above_cell);
-    for (&id, b) in node.ids.iter().zip(&node.boxes) {
+    let Scratch { refs, above, .. } = scratch;
+    above.truncate(0);
+    let first = refs.len();
+    let (mut below_union, mut above_union) = (Aabb::EMPTY, Aabb::EMPTY);
+    for i in node.refs.clone() {
+        let (id, b) = (refs.ids[i], refs.boxes[i]);
         match side_of(b.min[axis], b.max[axis], p, split.planar_below) {
             Side::Below => {
-                below.ids.push(id);
-                below.boxes.push(*b);
+                refs.push(id, b);
+                below_union = below_union.union(b);
             }
             Side::Above => {
-                above.ids.push(id);
-                above.boxes.push(*b);
+                above.push(id, b);
+                above_union = above_union.union(b);
             }
             Side::Both => {
                 let tri = &context.triangles[id as usize];
-                let parts = split_clipped_bounds(tri, &node.cell, axis, p);
-                for (child, part) in [&mut below, &mut above].into_iter().zip(parts) {
-                    if let Some(clipped) = part {
-                        child.ids.push(id);
-                        child.boxes.push(clipped);
-                    }
+                let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
+                if let Some(part) = below_part {
+                    refs.push(id, part);
+                    below_union = below_union.union(part);
+                }
+                if let Some(part) = above_part {
+                    above.push(id, part);
+                    above_union = above_union.union(part);
                 }
             }
         }
     }
-    (below, above)
+    let middle = refs.len();
+    refs.ids.extend_from_slice(&above.ids);
+    refs.boxes.extend_from_slice(&above.boxes);
+    (
+        BoxNode {
+            refs: first..middle,
+            cell: below_cell,
+            union: below_union,
+        },
+        BoxNode {
+            refs: middle..refs.len(),
+            cell: above_cell,
+            union: above_union,
+        },
+    )
 }
 
 #[cfg(all(test, feature = "parallel"))]

@@ -2,7 +2,7 @@
 //! (Wald & Havran 2006, §3 and §4.2, Algorithm 4), and the binned search used instead on large
 //! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
 
-use glam::IVec3;
+use glam::Vec3A;
 use kdbeam_kernels::{Aabb, Vec3};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
@@ -302,6 +302,15 @@ impl AxisGeometry {
 
 /// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
 pub(super) const BINS: usize = 32;
+const _: () = assert!(BINS.is_power_of_two(), "bin_index masks with BINS − 1");
+
+/// The index of a bin coordinate already clamped to `[0, BINS − 1]`: its integer part.
+#[inline(always)]
+fn bin_index(t: f32) -> usize {
+    // The casts truncate exactly (through i32: a cast to usize costs three times as many
+    // instructions); the mask lets the compiler drop the bounds checks.
+    (t as i32 as usize) & (BINS - 1)
+}
 
 /// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
 /// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
@@ -318,9 +327,8 @@ pub(super) struct Bins {
 }
 
 impl Bins {
-    /// The counts of non-empty boxes `boxes` (at most 2³² − 1).
-    pub fn new(boxes: &[Aabb]) -> Bins {
-        let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+    /// The counts of non-empty boxes `boxes` (at most 2³² − 1) whose union is `union`.
+    pub fn new(boxes: &[Aabb], union: Aabb) -> Bins {
         let per_unit = (BINS as f32 / union.extent()).to_array();
         let mut bins = Bins {
             union,
@@ -329,20 +337,19 @@ impl Bins {
             ends: [[0; BINS]; 3],
             count: boxes.len() as u32,
         };
-        let (first, per_unit) = (union.min, Vec3::from(per_unit));
-        let last = IVec3::splat(BINS as i32 - 1);
-        // The casts saturate (negative to 0) and take NaN (0 · ∞ on a flat axis) to 0.
+        let (first, scale) = (Vec3A::from(union.min), Vec3A::from_array(per_unit));
+        let last = Vec3A::splat((BINS - 1) as f32);
+        // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
         let bin = |x: Vec3| {
-            ((x - first) * per_unit)
-                .as_ivec3()
+            ((Vec3A::from(x) - first) * scale)
+                .max(Vec3A::ZERO)
                 .min(last)
-                .max(IVec3::ZERO)
         };
         for b in boxes {
-            let (lo, hi) = (bin(b.min), bin(b.max));
+            let (lo, hi) = (bin(b.min).to_array(), bin(b.max).to_array());
             for axis in 0..3 {
-                bins.starts[axis][lo[axis] as usize] += 1;
-                bins.ends[axis][hi[axis] as usize] += 1;
+                bins.starts[axis][bin_index(lo[axis])] += 1;
+                bins.ends[axis][bin_index(hi[axis])] += 1;
             }
         }
         bins
@@ -400,7 +407,7 @@ mod tests {
             })
             .collect();
         let boxes = boxes_x(&spans);
-        let bins = Bins::new(&boxes);
+        let bins = Bins::new(&boxes, boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b)));
         // In a cell twice as wide, the empty space above goes first, cut at the union's face.
         let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
         let cut = costs.best_binned_split(&bins, &wide).unwrap();
