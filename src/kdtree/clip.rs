@@ -19,7 +19,7 @@
 //! keeps `margin · s` below one f32 ulp of the magnitude for slopes up to 2²³ (a 2⁻⁴⁰ margin once
 //! loosened a Sponza leaf by 3·10⁻⁵ along a wall edge of slope 2·10⁶).
 
-use kdbeam_kernels::{Aabb, DVec3, Triangle};
+use kdbeam_kernels::{Aabb, DVec3, Triangle, Vec3};
 
 /// Vertices a clipped polygon may reach: a convex polygon gains at most one vertex per plane
 /// (3 + 6); more than this means rounding made it non-convex, and we fall back to the box.
@@ -49,22 +49,42 @@ pub(super) fn split_clipped_bounds(
     let (mut below, mut above) = (*cell, *cell);
     below.max[axis] = position;
     above.min[axis] = position;
+    let halves = [below, above];
+    // The axis as a constant, so that coordinates along it are picked without a branch.
+    match axis {
+        0 => split_clipped_bounds_on::<0>(tri, cell, &halves, position),
+        1 => split_clipped_bounds_on::<1>(tri, cell, &halves, position),
+        _ => split_clipped_bounds_on::<2>(tri, cell, &halves, position),
+    }
+}
+
+/// [`split_clipped_bounds`] on axis `AXIS`, with the cell's halves already made.
+fn split_clipped_bounds_on<const AXIS: usize>(
+    tri: &Triangle,
+    cell: &Aabb,
+    halves: &[Aabb; 2],
+    position: f32,
+) -> [Option<Aabb>; 2] {
     let clip = Clip::new(tri, cell);
     let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-    // The common case is a triangle inside the cell: the clip to the cell is a no-op.
-    let poly = match clip.to_cell(&triangle, cell) {
-        None => return [None, None],
-        Some(Err(Overflow)) => return [fallback(tri, &below), fallback(tri, &above)],
-        Some(Ok(None)) => None,
-        Some(Ok(Some(poly))) => Some(poly),
-    };
-    let verts = poly.as_ref().map_or(&triangle[..], |p| &p.verts[..p.len]);
     let plane = f64::from(position);
-    let [below_span, above_span] =
-        split_spans(verts, axis, plane + clip.margin, plane - clip.margin);
+    let planes = [plane + clip.margin, plane - clip.margin];
+    let mut buffers;
+    let spans = if clip.inside(cell) {
+        // The clip to the cell would cut nothing off: the same steps on the triangle itself.
+        split_spans::<AXIS>(&triangle, planes)
+    } else {
+        buffers = [[DVec3::ZERO; MAX_POLYGON]; 2];
+        match clip.to_cell(&triangle, cell, &mut buffers) {
+            Ok(polygon) => split_spans::<AXIS>(polygon, planes),
+            Err(Cut::Empty) => return [None, None],
+            Err(Cut::Overflow) => return halves.map(|half| fallback(&clip.vertex_box, &half)),
+        }
+    };
+    let [below, above] = spans;
     [
-        below_span.and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
-        above_span.and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
+        below.and_then(|(lo, hi)| clip.rounded(lo, hi, &halves[0])),
+        above.and_then(|(lo, hi)| clip.rounded(lo, hi, &halves[1])),
     ]
 }
 
@@ -79,15 +99,21 @@ struct Clip {
     hi: DVec3,
 }
 
-/// A convex polygon of at most [`MAX_POLYGON`] vertices.
-#[derive(Clone, Copy)]
-struct Polygon {
-    verts: [DVec3; MAX_POLYGON],
-    len: usize,
+/// Why clipping to the cell left no polygon.
+enum Cut {
+    /// Nothing is left.
+    Empty,
+    /// Rounding made the polygon non-convex (it outgrew [`MAX_POLYGON`]).
+    Overflow,
 }
 
-/// Rounding made a clipped polygon non-convex (it outgrew [`MAX_POLYGON`]).
-struct Overflow;
+/// A convex polygon of at most [`MAX_POLYGON`] vertices being clipped, with a spare buffer
+/// for the next clip to write to.
+struct Polygon<'a> {
+    verts: &'a mut [DVec3; MAX_POLYGON],
+    spare: &'a mut [DVec3; MAX_POLYGON],
+    len: usize,
+}
 
 impl Clip {
     fn new(tri: &Triangle, cell: &Aabb) -> Self {
@@ -106,98 +132,113 @@ impl Clip {
         }
     }
 
-    /// The triangle clipped to the grown `cell`: `None` if nothing is left, `Err` on overflow,
-    /// `Ok(None)` if the triangle lies inside `cell` (no vertex is cut off).
+    /// True when the triangle's box lies inside `cell`, so that clipping to the grown cell
+    /// cuts nothing off.
+    fn inside(&self, cell: &Aabb) -> bool {
+        let vb = &self.vertex_box;
+        cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all()
+    }
+
+    /// The triangle clipped to the grown `cell`, in one of `buffers`.
     ///
     /// A face the triangle's box does not cross is skipped without looking at the polygon:
     /// clipped points lie in that box but for f64 rounding, far smaller than the margin.
-    fn to_cell(
+    fn to_cell<'a>(
         &self,
         triangle: &[DVec3; 3],
         cell: &Aabb,
-    ) -> Option<Result<Option<Polygon>, Overflow>> {
-        let vb = &self.vertex_box;
-        if cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all() {
-            return Some(Ok(None));
-        }
+        buffers: &'a mut [[DVec3; MAX_POLYGON]; 2],
+    ) -> Result<&'a [DVec3], Cut> {
+        let [verts, spare] = buffers.each_mut();
+        verts[..3].copy_from_slice(triangle);
         let mut poly = Polygon {
-            verts: [DVec3::ZERO; MAX_POLYGON],
+            verts,
+            spare,
             len: 3,
         };
-        poly.verts[..3].copy_from_slice(triangle);
-        for axis in 0..3 {
-            let faces = [
-                (self.lo[axis], true, vb.min[axis] < cell.min[axis]),
-                (self.hi[axis], false, vb.max[axis] > cell.max[axis]),
-            ];
-            for (plane, keep_above, crossed) in faces {
-                if !crossed {
-                    continue;
-                }
-                if let Err(overflow) = poly.clip(axis, plane, keep_above) {
-                    return Some(Err(overflow));
-                }
-                if poly.len == 0 {
-                    return None;
-                }
-            }
+        self.to_faces::<0>(&mut poly, cell)?;
+        self.to_faces::<1>(&mut poly, cell)?;
+        self.to_faces::<2>(&mut poly, cell)?;
+        let Polygon { verts, len, .. } = poly;
+        Ok(&verts[..len])
+    }
+
+    /// Clips `poly` to the grown cell's faces across `AXIS` that the triangle's box crosses.
+    fn to_faces<const AXIS: usize>(&self, poly: &mut Polygon<'_>, cell: &Aabb) -> Result<(), Cut> {
+        if self.vertex_box.min[AXIS] < cell.min[AXIS] {
+            poly.clip::<AXIS>(self.lo[AXIS], true)?;
         }
-        Some(Ok(Some(poly)))
+        if self.vertex_box.max[AXIS] > cell.max[AXIS] {
+            poly.clip::<AXIS>(self.hi[AXIS], false)?;
+        }
+        Ok(())
     }
 
     /// The f32 box of `[pmin, pmax]` rounded outward by the margin, within the triangle's own
     /// box and `cell`; `None` if empty.
     fn rounded(&self, pmin: DVec3, pmax: DVec3, cell: &Aabb) -> Option<Aabb> {
         let exact = self.vertex_box.intersection(*cell);
-        let mut b = Aabb::EMPTY;
-        for axis in 0..3 {
-            b.min[axis] = round_down(pmin[axis] - self.margin).max(exact.min[axis]);
-            b.max[axis] = round_up(pmax[axis] + self.margin).min(exact.max[axis]);
-        }
+        let m = self.margin;
+        let lo = [pmin.x - m, pmin.y - m, pmin.z - m].map(round_down);
+        let hi = [pmax.x + m, pmax.y + m, pmax.z + m].map(round_up);
+        // `f32::max` and `min`, which ignore a NaN, not glam's.
+        let b = Aabb::new(
+            Vec3::new(
+                lo[0].max(exact.min.x),
+                lo[1].max(exact.min.y),
+                lo[2].max(exact.min.z),
+            ),
+            Vec3::new(
+                hi[0].min(exact.max.x),
+                hi[1].min(exact.max.y),
+                hi[2].min(exact.max.z),
+            ),
+        );
         (!b.is_empty()).then_some(b)
     }
 }
 
-impl Polygon {
-    /// Clips to the half-space `p[axis] >= plane` (`keep_above`) or `<= plane`, in place; a
-    /// no-op when every vertex is inside.
-    fn clip(&mut self, axis: usize, plane: f64, keep_above: bool) -> Result<(), Overflow> {
+impl Polygon<'_> {
+    /// Clips to the half-space `p[AXIS] >= plane` (`keep_above`) or `<= plane`; a no-op when
+    /// every vertex is inside.
+    fn clip<const AXIS: usize>(&mut self, plane: f64, keep_above: bool) -> Result<(), Cut> {
         let inside = |p: DVec3| {
             if keep_above {
-                p[axis] - plane
+                p[AXIS] - plane
             } else {
-                plane - p[axis]
+                plane - p[AXIS]
             }
         };
-        if self.verts[..self.len].iter().all(|&p| inside(p) >= 0.0) {
-            return Ok(());
+        let verts = &self.verts[..self.len];
+        if !verts.iter().all(|&p| inside(p) >= 0.0) {
+            self.len =
+                clip_polygon::<AXIS>(verts, self.spare, plane, inside).ok_or(Cut::Overflow)?;
+            std::mem::swap(&mut self.verts, &mut self.spare);
         }
-        let mut out = [DVec3::ZERO; MAX_POLYGON];
-        let n =
-            clip_polygon(&self.verts[..self.len], &mut out, axis, plane, inside).ok_or(Overflow)?;
-        self.verts = out;
-        self.len = n;
+        if self.len == 0 {
+            return Err(Cut::Empty);
+        }
         Ok(())
     }
 }
 
-/// The spans of the parts of convex polygon `verts` where `p[axis] <= below_plane` and where
-/// `p[axis] >= above_plane`: two Sutherland–Hodgman steps of [`clip_polygon`] in one pass,
-/// with their points computed the same way but only their spans kept; `None` for a part with
-/// nothing left.
-fn split_spans(
+/// The spans of the parts of convex polygon `verts` where `p[AXIS] <= below_plane` and where
+/// `p[AXIS] >= above_plane` (`planes = [below_plane, above_plane]`): two Sutherland–Hodgman
+/// steps of [`clip_polygon`] in one pass, with their points computed the same way but only
+/// their spans kept; `None` for a part with nothing left.
+///
+/// Always inlined, so that for a triangle the loop is unrolled.
+#[inline(always)]
+fn split_spans<const AXIS: usize>(
     verts: &[DVec3],
-    axis: usize,
-    below_plane: f64,
-    above_plane: f64,
+    planes: [f64; 2],
 ) -> [Option<(DVec3, DVec3)>; 2] {
-    let planes = [below_plane, above_plane];
+    let [below_plane, above_plane] = planes;
     // Signed distances inside each half-space.
-    let inside = |p: DVec3| [below_plane - p[axis], p[axis] - above_plane];
+    let inside = |p: DVec3| [below_plane - p[AXIS], p[AXIS] - above_plane];
     let mut spans = [(DVec3::INFINITY, DVec3::NEG_INFINITY); 2];
     let mut any = [false; 2];
-    for (i, &a) in verts.iter().enumerate() {
-        let b = verts[(i + 1) % verts.len()];
+    for (a, b) in edges(verts) {
         let (da, db) = (inside(a), inside(b));
         for side in 0..2 {
             let (span, da, db) = (&mut spans[side], da[side], db[side]);
@@ -207,7 +248,7 @@ fn split_spans(
             }
             if (da >= 0.0) != (db >= 0.0) {
                 let mut p = a + (b - a) * (da / (da - db));
-                p[axis] = planes[side];
+                p[AXIS] = planes[side];
                 *span = (span.0.min(p), span.1.max(p));
                 any[side] = true;
             }
@@ -216,13 +257,18 @@ fn split_spans(
     [0, 1].map(|side| any[side].then_some(spans[side]))
 }
 
+/// The edges of polygon `verts` in order, from `verts[0] → verts[1]` to `verts[n-1] → verts[0]`.
+fn edges(verts: &[DVec3]) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
+    let next = verts.iter().skip(1).chain(verts.first());
+    verts.iter().copied().zip(next.copied())
+}
+
 /// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
-/// `out`. Crossing points get their `axis` coordinate set to `plane` exactly. Returns the new
+/// `out`. Crossing points get their `AXIS` coordinate set to `plane` exactly. Returns the new
 /// vertex count, or `None` if it would not fit `out`.
-fn clip_polygon(
+fn clip_polygon<const AXIS: usize>(
     poly: &[DVec3],
     out: &mut [DVec3; MAX_POLYGON],
-    axis: usize,
     plane: f64,
     inside: impl Fn(DVec3) -> f64,
 ) -> Option<usize> {
@@ -233,15 +279,14 @@ fn clip_polygon(
         n += 1;
         Some(())
     };
-    for (i, &a) in poly.iter().enumerate() {
-        let b = poly[(i + 1) % poly.len()];
+    for (a, b) in edges(poly) {
         let (da, db) = (inside(a), inside(b));
         if da >= 0.0 {
             push(a)?;
         }
         if (da >= 0.0) != (db >= 0.0) {
             let mut p = a + (b - a) * (da / (da - db));
-            p[axis] = plane;
+            p[AXIS] = plane;
             push(p)?;
         }
     }
@@ -249,8 +294,8 @@ fn clip_polygon(
 }
 
 /// The triangle's box ∩ the cell: conservative when the clip cannot be trusted.
-fn fallback(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
-    let b = vertex_box(tri).intersection(*cell);
+fn fallback(vertex_box: &Aabb, cell: &Aabb) -> Option<Aabb> {
+    let b = vertex_box.intersection(*cell);
     (!b.is_empty()).then_some(b)
 }
 
@@ -261,28 +306,18 @@ fn vertex_box(tri: &Triangle) -> Aabb {
 /// The largest f32 `<= x`.
 fn round_down(x: f64) -> f32 {
     let f = x as f32;
-    if f64::from(f) > x {
-        next_toward_neg_inf(f)
-    } else {
-        f
-    }
+    let bits = f.to_bits();
+    // One step toward −∞ where rounding went up: the magnitude's bits down one for a positive
+    // `f`, up one for a negative one. Rounding a negative `x` gives a negative `f` (−0 for a
+    // tiny one, which steps to the least negative f32): `f` is never +0 here.
+    let step = if (bits as i32) < 0 { 1 } else { u32::MAX };
+    let up = f64::from(f) > x;
+    f32::from_bits(bits.wrapping_add(if up { step } else { 0 }))
 }
 
 /// The smallest f32 `>= x`.
 fn round_up(x: f64) -> f32 {
     -round_down(-x)
-}
-
-/// The next f32 below finite `f` (`f32::next_down` is newer than the crate's MSRV).
-fn next_toward_neg_inf(f: f32) -> f32 {
-    let bits = f.to_bits();
-    if f == 0.0 {
-        -f32::from_bits(1)
-    } else if f > 0.0 {
-        f32::from_bits(bits - 1)
-    } else {
-        f32::from_bits(bits + 1)
-    }
 }
 
 #[cfg(test)]
@@ -387,9 +422,9 @@ mod tests {
     fn rounding_is_outward() {
         // 0.1f32 is just above 0.1.
         assert_eq!(round_up(0.1), 0.1f32);
-        assert_eq!(round_down(0.1), next_toward_neg_inf(0.1f32));
+        assert_eq!(round_down(0.1), 0.1f32.next_down());
         assert!(f64::from(round_down(0.1)) <= 0.1 && f64::from(round_up(0.1)) >= 0.1);
         assert_eq!(round_down(-0.0), 0.0);
-        assert!(next_toward_neg_inf(0.0) < 0.0 && next_toward_neg_inf(-1.0) < -1.0);
+        assert!(round_down(-1e-300) < 0.0 && round_down(-1.0 - 1e-12) < -1.0);
     }
 }
