@@ -40,51 +40,55 @@ const MARGIN: f64 = 1.0 / (1u64 << 46) as f64;
 /// side of the (grown) plane: the same half-spaces as clipping to each half, in another order.
 /// A triangle touching a half only on its boundary gives a flat box on that boundary.
 /// Degenerate triangles (segments, points) clip like any other polygon.
+///
+/// # Panics
+///
+/// If `axis` is not 0, 1 or 2.
 pub(super) fn split_clipped_bounds(
     tri: &Triangle,
     cell: &Aabb,
     axis: usize,
     position: f32,
 ) -> [Option<Aabb>; 2] {
-    let (mut below, mut above) = (*cell, *cell);
-    below.max[axis] = position;
-    above.min[axis] = position;
-    let halves = [below, above];
     // The axis as a constant, so that coordinates along it are picked without a branch.
     match axis {
-        0 => split_clipped_bounds_on::<0>(tri, cell, &halves, position),
-        1 => split_clipped_bounds_on::<1>(tri, cell, &halves, position),
-        _ => split_clipped_bounds_on::<2>(tri, cell, &halves, position),
+        0 => split_clipped_bounds_on::<0>(tri, cell, position),
+        1 => split_clipped_bounds_on::<1>(tri, cell, position),
+        2 => split_clipped_bounds_on::<2>(tri, cell, position),
+        _ => panic!("split axis {axis} is not 0, 1 or 2"),
     }
 }
 
-/// [`split_clipped_bounds`] on axis `AXIS`, with the cell's halves already made.
+/// [`split_clipped_bounds`] on axis `AXIS`.
 fn split_clipped_bounds_on<const AXIS: usize>(
     tri: &Triangle,
     cell: &Aabb,
-    halves: &[Aabb; 2],
     position: f32,
 ) -> [Option<Aabb>; 2] {
+    let (mut below, mut above) = (*cell, *cell);
+    below.max[AXIS] = position;
+    above.min[AXIS] = position;
     let clip = Clip::new(tri, cell);
-    let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+    let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
     let plane = f64::from(position);
     let planes = [plane + clip.margin, plane - clip.margin];
     let mut buffers;
     let spans = if clip.inside(cell) {
         // The clip to the cell would cut nothing off: the same steps on the triangle itself.
-        split_spans::<AXIS>(&triangle, planes)
+        split_spans::<AXIS>(&[v0, v1, v2, v0], planes)
     } else {
-        buffers = [[DVec3::ZERO; MAX_POLYGON]; 2];
-        match clip.to_cell(&triangle, cell, &mut buffers) {
+        buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
+        match clip.to_cell(&[v0, v1, v2, v0], cell, &mut buffers) {
             Ok(polygon) => split_spans::<AXIS>(polygon, planes),
             Err(Cut::Empty) => return [None, None],
-            Err(Cut::Overflow) => return halves.map(|half| fallback(&clip.vertex_box, &half)),
+            Err(Cut::Overflow) => {
+                return [below, above].map(|half| fallback(&clip.vertex_box, &half));
+            }
         }
     };
-    let [below, above] = spans;
     [
-        below.and_then(|(lo, hi)| clip.rounded(lo, hi, &halves[0])),
-        above.and_then(|(lo, hi)| clip.rounded(lo, hi, &halves[1])),
+        spans[0].and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
+        spans[1].and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
     ]
 }
 
@@ -94,9 +98,6 @@ struct Clip {
     vertex_box: Aabb,
     /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
     margin: f64,
-    /// The grown cell's corners.
-    lo: DVec3,
-    hi: DVec3,
 }
 
 /// Why clipping to the cell left no polygon.
@@ -107,11 +108,13 @@ enum Cut {
     Overflow,
 }
 
-/// A convex polygon of at most [`MAX_POLYGON`] vertices being clipped, with a spare buffer
-/// for the next clip to write to.
+/// A convex polygon of at most [`MAX_POLYGON`] vertices being clipped, closed (its first
+/// vertex repeated after the last, so that its edges are the pairs of neighbours), with a
+/// spare buffer for the next clip to write to.
 struct Polygon<'a> {
-    verts: &'a mut [DVec3; MAX_POLYGON],
-    spare: &'a mut [DVec3; MAX_POLYGON],
+    verts: &'a mut [DVec3; MAX_POLYGON + 1],
+    spare: &'a mut [DVec3; MAX_POLYGON + 1],
+    /// The number of vertices, not counting the repeated one.
     len: usize,
 }
 
@@ -123,13 +126,7 @@ impl Clip {
             .iter()
             .fold(0.0f32, |m, v| m.max(v.abs().max_element()));
         let margin = f64::from(magnitude) * MARGIN;
-        let (cmin, cmax) = (DVec3::from(cell.min), DVec3::from(cell.max));
-        Clip {
-            vertex_box,
-            margin,
-            lo: cmin - margin,
-            hi: cmax + margin,
-        }
+        Clip { vertex_box, margin }
     }
 
     /// True when the triangle's box lies inside `cell`, so that clipping to the grown cell
@@ -139,18 +136,18 @@ impl Clip {
         cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all()
     }
 
-    /// The triangle clipped to the grown `cell`, in one of `buffers`.
+    /// The closed `triangle` clipped to the grown `cell`, in one of `buffers`, closed.
     ///
     /// A face the triangle's box does not cross is skipped without looking at the polygon:
     /// clipped points lie in that box but for f64 rounding, far smaller than the margin.
     fn to_cell<'a>(
         &self,
-        triangle: &[DVec3; 3],
+        triangle: &[DVec3; 4],
         cell: &Aabb,
-        buffers: &'a mut [[DVec3; MAX_POLYGON]; 2],
+        buffers: &'a mut [[DVec3; MAX_POLYGON + 1]; 2],
     ) -> Result<&'a [DVec3], Cut> {
         let [verts, spare] = buffers.each_mut();
-        verts[..3].copy_from_slice(triangle);
+        verts[..4].copy_from_slice(triangle);
         let mut poly = Polygon {
             verts,
             spare,
@@ -160,16 +157,16 @@ impl Clip {
         self.to_faces::<1>(&mut poly, cell)?;
         self.to_faces::<2>(&mut poly, cell)?;
         let Polygon { verts, len, .. } = poly;
-        Ok(&verts[..len])
+        Ok(&verts[..=len])
     }
 
     /// Clips `poly` to the grown cell's faces across `AXIS` that the triangle's box crosses.
     fn to_faces<const AXIS: usize>(&self, poly: &mut Polygon<'_>, cell: &Aabb) -> Result<(), Cut> {
         if self.vertex_box.min[AXIS] < cell.min[AXIS] {
-            poly.clip::<AXIS>(self.lo[AXIS], true)?;
+            poly.clip::<AXIS>(f64::from(cell.min[AXIS]) - self.margin, true)?;
         }
         if self.vertex_box.max[AXIS] > cell.max[AXIS] {
-            poly.clip::<AXIS>(self.hi[AXIS], false)?;
+            poly.clip::<AXIS>(f64::from(cell.max[AXIS]) + self.margin, false)?;
         }
         Ok(())
     }
@@ -209,10 +206,10 @@ impl Polygon<'_> {
                 plane - p[AXIS]
             }
         };
-        let verts = &self.verts[..self.len];
-        if !verts.iter().all(|&p| inside(p) >= 0.0) {
+        if !self.verts[..self.len].iter().all(|&p| inside(p) >= 0.0) {
+            let closed = &self.verts[..=self.len];
             self.len =
-                clip_polygon::<AXIS>(verts, self.spare, plane, inside).ok_or(Cut::Overflow)?;
+                clip_polygon::<AXIS>(closed, self.spare, plane, inside).ok_or(Cut::Overflow)?;
             std::mem::swap(&mut self.verts, &mut self.spare);
         }
         if self.len == 0 {
@@ -222,7 +219,8 @@ impl Polygon<'_> {
     }
 }
 
-/// The spans of the parts of convex polygon `verts` where `p[AXIS] <= below_plane` and where
+/// The spans of the parts of closed convex polygon `verts` (the first vertex repeated after the
+/// last) where `p[AXIS] <= below_plane` and where
 /// `p[AXIS] >= above_plane` (`planes = [below_plane, above_plane]`): two Sutherland–Hodgman
 /// steps of [`clip_polygon`] in one pass, with their points computed the same way but only
 /// their spans kept; `None` for a part with nothing left.
@@ -238,7 +236,8 @@ fn split_spans<const AXIS: usize>(
     let inside = |p: DVec3| [below_plane - p[AXIS], p[AXIS] - above_plane];
     let mut spans = [(DVec3::INFINITY, DVec3::NEG_INFINITY); 2];
     let mut any = [false; 2];
-    for (a, b) in edges(verts) {
+    for edge in verts.windows(2) {
+        let (a, b) = (edge[0], edge[1]);
         let (da, db) = (inside(a), inside(b));
         for side in 0..2 {
             let (span, da, db) = (&mut spans[side], da[side], db[side]);
@@ -257,29 +256,25 @@ fn split_spans<const AXIS: usize>(
     [0, 1].map(|side| any[side].then_some(spans[side]))
 }
 
-/// The edges of polygon `verts` in order, from `verts[0] → verts[1]` to `verts[n-1] → verts[0]`.
-fn edges(verts: &[DVec3]) -> impl Iterator<Item = (DVec3, DVec3)> + '_ {
-    let next = verts.iter().skip(1).chain(verts.first());
-    verts.iter().copied().zip(next.copied())
-}
-
-/// One Sutherland–Hodgman step: the part of polygon `poly` where `inside(p) >= 0`, written to
-/// `out`. Crossing points get their `AXIS` coordinate set to `plane` exactly. Returns the new
-/// vertex count, or `None` if it would not fit `out`.
+/// One Sutherland–Hodgman step: the part of closed polygon `poly` (the first vertex repeated
+/// after the last) where `inside(p) >= 0`, written to `out`, closed. Crossing points get their
+/// `AXIS` coordinate set to `plane` exactly. Returns the new vertex count (not counting the
+/// repeated one), or `None` if it would be more than [`MAX_POLYGON`].
 fn clip_polygon<const AXIS: usize>(
     poly: &[DVec3],
-    out: &mut [DVec3; MAX_POLYGON],
+    out: &mut [DVec3; MAX_POLYGON + 1],
     plane: f64,
     inside: impl Fn(DVec3) -> f64,
 ) -> Option<usize> {
     let mut n = 0;
     let mut push = |p: DVec3| {
-        let slot = out.get_mut(n)?;
+        let slot = out[..MAX_POLYGON].get_mut(n)?;
         *slot = p;
         n += 1;
         Some(())
     };
-    for (a, b) in edges(poly) {
+    for edge in poly.windows(2) {
+        let (a, b) = (edge[0], edge[1]);
         let (da, db) = (inside(a), inside(b));
         if da >= 0.0 {
             push(a)?;
@@ -290,6 +285,7 @@ fn clip_polygon<const AXIS: usize>(
             push(p)?;
         }
     }
+    out[n] = out[0];
     Some(n)
 }
 
