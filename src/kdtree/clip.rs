@@ -1,9 +1,12 @@
 //! "Perfect splits" (Wald & Havran 2006, §4.3; Havran 2000): the boxes of the parts of a
 //! triangle in the two halves of a split cell, by Sutherland–Hodgman clipping of the triangle
 //! against the cell's six planes and then against each side of the split plane. Only the faces
-//! the triangle's vertex box crosses are clipped against (none for a triangle inside the cell,
-//! the common case), and the last step, against the split plane, keeps only the span of the
-//! points it would make.
+//! the triangle's vertex box crosses are clipped against, and the last step, against the split
+//! plane, keeps only the span of the points it would make. A triangle inside the cell (about
+//! half the calls in a build) skips the clip to the cell altogether: that clip would keep the
+//! triangle as it is, since each vertex `v >= min` also has `v >= min - margin` in f64
+//! (rounding is monotone and `min` is an f64, so the rounded `min - margin` is at most `min`),
+//! and likewise at `max`; the split step then sees the very same vertices.
 //!
 //! The clip runs in f64 against the cell grown by a tiny relative margin, and the result is
 //! rounded outward to f32 and then clamped to the cell (clamping is exact). The f32 box therefore
@@ -319,20 +322,26 @@ fn round_up(x: f64) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kdbeam_kernels::Vec3;
 
     fn cell(min: [f32; 3], max: [f32; 3]) -> Aabb {
         Aabb::new(Vec3::from(min), Vec3::from(max))
     }
 
+    /// The closed triangle `tri` in f64.
+    fn closed(tri: &Triangle) -> [DVec3; 4] {
+        let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+        [v0, v1, v2, v0]
+    }
+
     /// The box of `tri ∩ cell` by the same steps as [`split_clipped_bounds`], without a split.
     fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
         let clip = Clip::new(tri, cell);
-        let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-        let verts = match clip.to_cell(&triangle, cell)? {
-            Err(Overflow) => return fallback(tri, cell),
-            Ok(None) => triangle.to_vec(),
-            Ok(Some(poly)) => poly.verts[..poly.len].to_vec(),
+        let triangle = closed(tri);
+        let mut buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
+        let verts = match clip.to_cell(&triangle, cell, &mut buffers) {
+            Ok(closed) => closed,
+            Err(Cut::Empty) => return None,
+            Err(Cut::Overflow) => return fallback(&clip.vertex_box, cell),
         };
         let lo = verts.iter().fold(DVec3::INFINITY, |m, &v| m.min(v));
         let hi = verts.iter().fold(DVec3::NEG_INFINITY, |m, &v| m.max(v));
@@ -412,6 +421,168 @@ mod tests {
             max_z >= exact && max_z - exact < 1.9e-6,
             "{max_z} vs {exact}"
         );
+    }
+
+    /// [`split_clipped_bounds_on`] without its shortcuts: the triangle is clipped to all six
+    /// faces of the grown cell, whether its box crosses them or not.
+    fn split_by_clipping_every_face<const AXIS: usize>(
+        tri: &Triangle,
+        cell: &Aabb,
+        position: f32,
+    ) -> [Option<Aabb>; 2] {
+        fn to_faces<const A: usize>(poly: &mut Polygon<'_>, cell: &Aabb, margin: f64) -> bool {
+            poly.clip::<A>(f64::from(cell.min[A]) - margin, true)
+                .is_ok()
+                && poly
+                    .clip::<A>(f64::from(cell.max[A]) + margin, false)
+                    .is_ok()
+        }
+        let (mut below, mut above) = (*cell, *cell);
+        below.max[AXIS] = position;
+        above.min[AXIS] = position;
+        let clip = Clip::new(tri, cell);
+        let mut buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
+        let [verts, spare] = buffers.each_mut();
+        verts[..4].copy_from_slice(&closed(tri));
+        let mut poly = Polygon {
+            verts,
+            spare,
+            len: 3,
+        };
+        let m = clip.margin;
+        if !(to_faces::<0>(&mut poly, cell, m)
+            && to_faces::<1>(&mut poly, cell, m)
+            && to_faces::<2>(&mut poly, cell, m))
+        {
+            return [None, None];
+        }
+        let plane = f64::from(position);
+        let spans = split_spans::<AXIS>(&poly.verts[..=poly.len], [plane + m, plane - m]);
+        [
+            spans[0].and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
+            spans[1].and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
+        ]
+    }
+
+    /// The bits of both boxes, so that ±0 and NaNs compare exactly.
+    fn bits(parts: [Option<Aabb>; 2]) -> [Option<[u32; 6]>; 2] {
+        parts.map(|part| {
+            part.map(|b| {
+                let [x0, y0, z0] = b.min.to_array().map(f32::to_bits);
+                let [x1, y1, z1] = b.max.to_array().map(f32::to_bits);
+                [x0, y0, z0, x1, y1, z1]
+            })
+        })
+    }
+
+    #[test]
+    fn the_inside_shortcut_equals_clipping_to_every_face() {
+        // For a triangle inside the cell, `split_clipped_bounds` skips the clip to the cell.
+        // Clipping to all six grown faces instead must give the same boxes bit for bit, for
+        // triangles touching the faces, flat, degenerate, in the split plane, with −0.
+        let c = cell([-1.0, -0.5, 0.0], [1.0, 1.5, 2.0]);
+        let v = Vec3::new;
+        let triangles = [
+            // General, well inside.
+            Triangle::new(v(-0.3, 0.1, 0.2), v(0.7, 0.9, 1.1), v(0.1, -0.2, 1.9)),
+            // Touching the min faces, and the max faces.
+            Triangle::new(v(-1.0, -0.5, 0.0), v(0.5, 0.25, 1.0), v(-0.25, 1.0, 0.5)),
+            Triangle::new(v(1.0, 1.5, 2.0), v(0.0, 0.0, 1.0), v(0.5, 1.5, 0.25)),
+            // Spanning the cell corner to corner.
+            Triangle::new(v(-1.0, -0.5, 0.0), v(1.0, 1.5, 2.0), v(1.0, -0.5, 2.0)),
+            // Flat in z, and flat in x on the cell's face.
+            Triangle::new(v(-0.5, 0.0, 1.0), v(0.5, 1.0, 1.0), v(0.25, -0.25, 1.0)),
+            Triangle::new(v(1.0, 0.0, 0.5), v(1.0, 1.0, 1.5), v(1.0, -0.5, 2.0)),
+            // A segment, a point, and −0 coordinates.
+            Triangle::new(v(-0.75, 0.0, 0.5), v(0.75, 1.0, 1.5), v(0.0, 0.5, 1.0)),
+            Triangle::new(v(0.3, 0.3, 0.3), v(0.3, 0.3, 0.3), v(0.3, 0.3, 0.3)),
+            Triangle::new(v(-0.0, 0.0, -0.0), v(0.0, -0.0, 0.0), v(0.5, 0.5, 0.0)),
+            // A sliver with an edge nearly along x.
+            Triangle::new(
+                v(-0.9, 0.2, 0.3),
+                v(0.9, 0.2000001, 0.3),
+                v(0.1, 0.2, 0.3000001),
+            ),
+        ];
+        for tri in &triangles {
+            let vb = vertex_box(tri);
+            assert!(Clip::new(tri, &c).inside(&c), "{tri:?}");
+            for axis in 0..3 {
+                // Splits through the vertices, the cell's faces, the box's middle and zero;
+                // the first puts a triangle flat on `axis` in the split plane.
+                let positions = [
+                    tri.v0,
+                    tri.v1,
+                    tri.v2,
+                    c.min,
+                    c.max,
+                    vb.center(),
+                    Vec3::ZERO,
+                ]
+                .map(|p| p[axis].clamp(c.min[axis], c.max[axis]));
+                for position in positions {
+                    let general = match axis {
+                        0 => split_by_clipping_every_face::<0>(tri, &c, position),
+                        1 => split_by_clipping_every_face::<1>(tri, &c, position),
+                        _ => split_by_clipping_every_face::<2>(tri, &c, position),
+                    };
+                    let fast = split_clipped_bounds(tri, &c, axis, position);
+                    assert_eq!(bits(fast), bits(general), "{tri:?} {axis} {position}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn round_down_steps_toward_negative_infinity_exactly_when_rounding_went_up() {
+        // Against the definition: the nearest f32, one step down if it is above `x`.
+        let reference = |x: f64| {
+            let f = x as f32;
+            if f64::from(f) > x {
+                f.next_down()
+            } else {
+                f
+            }
+        };
+        let tiny = f64::from(f32::from_bits(1));
+        let max = f64::from(f32::MAX);
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            tiny,
+            -tiny,
+            tiny / 3.0,
+            -tiny / 3.0,
+            0.1,
+            -0.1,
+            1.0,
+            -1.0,
+            max,
+            -max,
+            max * (1.0 + 1e-9),
+            -max * (1.0 + 1e-9),
+            max * 2.0,
+            -max * 2.0,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MIN_POSITIVE,
+        ];
+        // And a spread of magnitudes, each nudged either side of an f32.
+        for e in -150..130 {
+            let f = 1.37f64 * 2f64.powi(e);
+            for x in [f, -f] {
+                let r = f64::from(x as f32);
+                xs.extend([x, r, r * (1.0 + 1e-12), r * (1.0 - 1e-12)]);
+            }
+        }
+        for x in xs {
+            let (got, want) = (round_down(x), reference(x));
+            assert_eq!(got.to_bits(), want.to_bits(), "{x:e}: {got:e} vs {want:e}");
+            assert_eq!(round_up(x).to_bits(), (-reference(-x)).to_bits(), "{x:e}");
+        }
     }
 
     #[test]
