@@ -140,12 +140,14 @@ fn build_params_at_the_ends_of_their_ranges_build() {
             empty_bonus: 0.0,
             max_depth: Some(0),
             leaf_size: 1,
+            exact_search_max: 0,
         },
         BuildParams {
             ci_over_ct: f32::MAX,
             empty_bonus: 0.999_999,
             max_depth: Some(64),
             leaf_size: u32::MAX,
+            exact_search_max: u32::MAX,
         },
     ] {
         let tree = KdTree::build(&mesh, &params).expect("valid parameters");

@@ -2,7 +2,8 @@
 //! in O(N log N)", RT06), with binning on large nodes.
 //!
 //! A node is its triangles (mesh ids) with their boxes clipped to its cell. At a node:
-//! 1. the cheapest plane is searched for: in a node of more than [`EXACT_MAX`] triangles among
+//! 1. the cheapest plane is searched for: in a node of more than
+//!    [`BuildParams::exact_search_max`] triangles (default 64) among
 //!    binned planes ([`Bins`]: the 31 boundaries of 32 bins per axis across the boxes' union,
 //!    and the union's faces; Hunt, Mark & Stoll 2006, Shevtsov et al. 2007), whose counts are
 //!    estimates at the boundaries; in a smaller one among every event plane, with exact counts,
@@ -15,10 +16,16 @@
 //!    "perfect splits"), the others keep their boxes.
 //!
 //! O(N log N): a binned node costs O(n); a small node sorts its events in
-//! O(n log [`EXACT_MAX`]) = O(n); the depth limit keeps the levels O(log N). (Keeping small
+//! O(n log `exact_search_max`) = O(n); the depth limit keeps the levels O(log N). (Keeping small
 //! nodes' event lists sorted through the splits instead, as Wald & Havran do, measured slower
-//! than sorting at most 6 · 64 events per node afresh.) The thresholds were chosen by measured
-//! build time and SAH tree cost on the shared scenes.
+//! than sorting at most 6 · 64 events per node afresh, and so did counting each candidate's
+//! sides directly, without sorting, in nodes of at most 16 triangles.) The default threshold
+//! and the bin count were chosen by measured build time and SAH tree cost on the shared
+//! scenes.
+//!
+//! A node's references (ids and clipped boxes) are a run of one per-thread stack ([`Refs`]):
+//! a split pushes its children's above it, and they are popped once the subtree is built, so
+//! no node allocates.
 //!
 //! With the `parallel` feature, the two children of a large node are built with `rayon::join`
 //! and their layouts stitched; the search and the classification do not depend on it, so the
@@ -40,9 +47,6 @@ use crate::{Error, Mesh, Result};
 /// Nodes with more triangles than this build their children in parallel.
 #[cfg(feature = "parallel")]
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
-
-/// Nodes with more triangles than this are searched by binning, smaller ones exactly.
-const EXACT_MAX: usize = 64;
 
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
@@ -89,6 +93,8 @@ struct Context<'a> {
     costs: CostModel,
     leaf_size: usize,
     depth_limit: u32,
+    /// [`BuildParams::exact_search_max`].
+    exact_max: usize,
     /// Whether to build children with `rayon::join` (not with a one-thread pool).
     #[cfg(feature = "parallel")]
     parallel: bool,
@@ -169,6 +175,7 @@ impl KdTree {
             costs: CostModel::new(params),
             leaf_size: params.leaf_size as usize,
             depth_limit: params.depth_limit(n),
+            exact_max: params.exact_search_max as usize,
             #[cfg(feature = "parallel")]
             parallel: rayon::current_num_threads() > 1,
         };
@@ -248,8 +255,8 @@ fn build_subtree(
     // node may be split, so neither is prepared otherwise.
     let searched = may_split(context, n, depth);
     let boxes = &scratch.refs.boxes[node.refs.clone()];
-    let bins = (searched && n > EXACT_MAX).then(|| Bins::new(boxes, node.union));
-    if searched && n <= EXACT_MAX {
+    let bins = (searched && n > context.exact_max).then(|| Bins::new(boxes, node.union));
+    if searched && n <= context.exact_max {
         let Scratch {
             events, candidates, ..
         } = scratch;

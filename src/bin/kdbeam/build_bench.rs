@@ -19,6 +19,10 @@ pub(crate) struct BuildBenchArgs {
     /// SAH cost ratios of the kd-trees, comma separated.
     #[arg(long, value_delimiter = ',', default_value = "0.3,1,3,10")]
     ci_over_ct: Vec<f32>,
+    /// The build-quality thresholds to compare ([`BuildParams::exact_search_max`]), comma
+    /// separated: nodes of at most this many triangles choose their split exactly.
+    #[arg(long, value_delimiter = ',', default_value = "64")]
+    exact_search_max: Vec<u32>,
     /// Image size of the frame, WIDTHxHEIGHT (the standard camera's primary rays).
     #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
     size: (u32, u32),
@@ -46,7 +50,7 @@ struct Row {
     triangles: usize,
     /// `kdtree` or `embree`.
     structure: &'static str,
-    /// `ci_over_ct=…` or `quality=…`.
+    /// `ci=… exact≤…` or `quality=…`.
     setting: String,
     threads: usize,
     build_ms: f64,
@@ -70,7 +74,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
-            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11} {:>10} {:>9} {:>11} {:>13}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>9} {:>11} {:>13}",
             "scene",
             "triangles",
             "struct",
@@ -98,9 +102,15 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
             frame_ms: 1e3 * frame,
             build_plus_frame_ms: 1e3 * (build + frame),
         };
-        for &ci_over_ct in &args.ci_over_ct {
+        let settings = args.ci_over_ct.iter().flat_map(|&ci_over_ct| {
+            args.exact_search_max
+                .iter()
+                .map(move |&exact_search_max| (ci_over_ct, exact_search_max))
+        });
+        for (ci_over_ct, exact_search_max) in settings {
             let params = BuildParams {
                 ci_over_ct,
+                exact_search_max,
                 ..BuildParams::default()
             };
             params.validate()?;
@@ -122,7 +132,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
             print_row(
                 &row(
                     "kdtree",
-                    format!("ci_over_ct={ci_over_ct}"),
+                    format!("ci={ci_over_ct} exact≤{exact_search_max}"),
                     build,
                     Some(sah_cost),
                     frame,
@@ -171,7 +181,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<22} {:>10} {:<8} {:<18} {:>8} {:>11.1} {:>10.2} {:>9} {:>11.1} {:>13.1}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>9} {:>11.1} {:>13.1}",
             r.scene,
             r.triangles,
             r.structure,
