@@ -32,7 +32,8 @@ pub struct BuildParams {
     /// plane (Wald & Havran's sweep); larger ones among 32 bins per axis. The build-quality
     /// knob: lower builds faster and gives slightly costlier trees (README, "Build"). `0` bins
     /// every node (on a regular grid, whose triangles line the bins' boundaries, that can take
-    /// many more nodes); `u32::MAX` searches every node exactly, in O(N log² N).
+    /// many more nodes); `u32::MAX` searches every node exactly, in O(N log² N) time and with
+    /// up to 144 bytes of scratch per triangle of the root (its sorted events and candidates).
     pub exact_search_max: u32,
 }
 
