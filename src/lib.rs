@@ -15,6 +15,6 @@ pub use error::{Error, Result};
 pub use glam::Vec3;
 pub use kdbeam_kernels as kernels;
 pub use kdbeam_kernels::{Aabb, Hit, HitPacket, Isa, PacketShape, Ray, RayPacket, Triangle};
-pub use kdtree::{BuildParams, BuildStats, KdTree};
+pub use kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
 pub use scene::Mesh;
 pub use trace::{Intersector, Tracer};

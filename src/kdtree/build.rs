@@ -162,6 +162,67 @@ impl KdTree {
     /// # Ok::<(), kdbeam::Error>(())
     /// ```
     pub fn build(mesh: &Mesh, params: &BuildParams) -> Result<KdTree> {
+        KdTreeBuilder::new().build(mesh, params)
+    }
+}
+
+/// Buffers for building kd-trees, kept from one build to the next.
+///
+/// A renderer of moving geometry rebuilds its tree every frame. Building through one
+/// `KdTreeBuilder`, into the previous frame's tree ([`KdTreeBuilder::rebuild`]), reuses the
+/// memory of both instead of asking the system for fresh pages: the trees are the same as
+/// [`KdTree::build`]'s, bit for bit. The builder holds its buffers (about 100 bytes per
+/// triangle reference of the largest tree it built) until it is dropped.
+///
+/// ```
+/// use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Mesh};
+/// let frame = |x: f32| Mesh::from_soup(&[[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 1.0, 0.0]]);
+/// let mut builder = KdTreeBuilder::new();
+/// let mut tree = builder.build(&frame(0.0)?, &BuildParams::default())?;
+/// builder.rebuild(&mut tree, &frame(2.0)?, &BuildParams::default())?;
+/// assert_eq!(tree.bounds().min.x, 2.0);
+/// # Ok::<(), kdbeam::Error>(())
+/// ```
+#[derive(Default)]
+pub struct KdTreeBuilder {
+    /// The mesh's triangles, by id.
+    triangles: Vec<Triangle>,
+    scratch: Scratch,
+    layout: Layout,
+}
+
+impl KdTreeBuilder {
+    /// A builder with no buffers yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Builds an SAH kd-tree over `mesh`: [`KdTree::build`], with this builder's buffers.
+    ///
+    /// # Errors
+    /// As [`KdTree::build`].
+    pub fn build(&mut self, mesh: &Mesh, params: &BuildParams) -> Result<KdTree> {
+        let mut tree = KdTree {
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            triangles: Vec::new(),
+            ks_triangles: Vec::new(),
+            ids: Vec::new(),
+            bounds: Aabb::EMPTY,
+            mesh_triangles: 0,
+            stats: BuildStats::default(),
+        };
+        self.rebuild(&mut tree, mesh, params)?;
+        Ok(tree)
+    }
+
+    /// Replaces `tree` with an SAH kd-tree over `mesh`, reusing its memory and this builder's:
+    /// afterwards `tree` is what [`KdTree::build`] returns for `mesh` and `params` (its
+    /// [`BuildStats::build_time`] aside).
+    ///
+    /// # Errors
+    /// As [`KdTree::build`]; `tree` is then left as it was.
+    pub fn rebuild(&mut self, tree: &mut KdTree, mesh: &Mesh, params: &BuildParams) -> Result<()> {
         params.validate()?;
         let started = Instant::now();
         let n = mesh.triangle_count();
@@ -170,10 +231,16 @@ impl KdTree {
                 "{n} triangles exceed the kd-tree's limit of 2^30"
             )));
         }
-        let mesh_triangles: Vec<Triangle> = mesh.triangles().collect();
+        let Self {
+            triangles: mesh_triangles,
+            scratch,
+            layout,
+        } = self;
+        mesh_triangles.clear();
+        mesh_triangles.extend(mesh.triangles());
         let bounds = mesh.bounds();
         let context = Context {
-            triangles: &mesh_triangles,
+            triangles: mesh_triangles,
             costs: CostModel::new(params),
             leaf_size: params.leaf_size as usize,
             depth_limit: params.depth_limit(n),
@@ -181,47 +248,39 @@ impl KdTree {
             #[cfg(feature = "parallel")]
             parallel: rayon::current_num_threads() > 1,
         };
-        let mut layout = Layout::default();
-        let mut scratch = Scratch::default();
+        layout.clear();
+        scratch.refs.truncate(0);
         let root = root_node(&context, bounds, &mut scratch.refs);
-        build_subtree(&context, root, 0, &mut scratch, &mut layout)?;
-        let out = layout.finish();
+        build_subtree(&context, root, 0, scratch, layout)?;
 
-        let triangles: Vec<Triangle> = out
-            .ids
-            .iter()
-            .map(|&id| mesh_triangles[id as usize])
-            .collect();
-        let ks_triangles: Vec<KsTriangle> = triangles.iter().map(KsTriangle::from).collect();
+        let max_depth = layout.finish_into(&mut tree.nodes, &mut tree.leaves, &mut tree.ids);
+        tree.triangles.clear();
+        tree.triangles
+            .extend(tree.ids.iter().map(|&id| mesh_triangles[id as usize]));
+        tree.ks_triangles.clear();
+        tree.ks_triangles
+            .extend(tree.triangles.iter().map(KsTriangle::from));
+        tree.bounds = bounds;
+        tree.mesh_triangles = n;
         let build_time = started.elapsed();
-        let leaves = out.nodes.iter().filter(|n| n.is_leaf()).count();
-        let sah_cost = sah_cost(&out.nodes, bounds, params.ci_over_ct, |record| {
-            out.leaves[record as usize].count
+        let (nodes, leaves, ids) = (&tree.nodes, &tree.leaves, &tree.ids);
+        let sah_cost = sah_cost(nodes, bounds, params.ci_over_ct, |record| {
+            leaves[record as usize].count
         });
-        let stats = BuildStats {
+        tree.stats = BuildStats {
             triangles: n,
-            nodes: out.nodes.len(),
-            leaves,
-            nonempty_leaves: out.leaves.len() - 1,
-            triangle_refs: out.ids.len(),
-            max_depth: out.max_depth,
-            bytes: out.nodes.len() * size_of::<Node>()
-                + out.leaves.len() * size_of::<LeafRecord>()
-                + out.ids.len()
-                    * (size_of::<Triangle>() + size_of::<KsTriangle>() + size_of::<u32>()),
+            nodes: nodes.len(),
+            leaves: nodes.iter().filter(|n| n.is_leaf()).count(),
+            nonempty_leaves: leaves.len() - 1,
+            triangle_refs: ids.len(),
+            max_depth,
+            bytes: nodes.len() * size_of::<Node>()
+                + leaves.len() * size_of::<LeafRecord>()
+                + ids.len() * (size_of::<Triangle>() + size_of::<KsTriangle>() + size_of::<u32>()),
             sah_cost,
             build_time,
         };
-        Ok(KdTree {
-            nodes: out.nodes,
-            leaves: out.leaves,
-            triangles,
-            ks_triangles,
-            ids: out.ids,
-            bounds,
-            mesh_triangles: n,
-            stats,
-        })
+        Ok(())
     }
 }
 
@@ -525,7 +584,7 @@ fn split_boxes(
     )
 }
 
-#[cfg(all(test, feature = "parallel"))]
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -557,6 +616,40 @@ mod tests {
             && a.ks_triangles == b.ks_triangles
     }
 
+    /// The stats but for the build time.
+    fn stats_but_time(t: &KdTree) -> BuildStats {
+        BuildStats {
+            build_time: std::time::Duration::ZERO,
+            ..t.stats
+        }
+    }
+
+    #[test]
+    fn rebuilding_into_an_old_tree_gives_the_fresh_build() {
+        let (big, small) = (soup(3000, 1), soup(500, 2));
+        let params = BuildParams::default();
+        let mut builder = KdTreeBuilder::new();
+        let mut tree = builder.build(&big, &params).unwrap();
+        // Smaller, larger, smaller again: nothing of the previous tree or build may survive.
+        for mesh in [&small, &big, &small] {
+            builder.rebuild(&mut tree, mesh, &params).unwrap();
+            let fresh = KdTree::build(mesh, &params).unwrap();
+            assert!(same_tree(&tree, &fresh));
+            assert_eq!(tree.bounds, fresh.bounds);
+            assert_eq!(tree.mesh_triangles, fresh.mesh_triangles);
+            assert_eq!(stats_but_time(&tree), stats_but_time(&fresh));
+        }
+        // A failed rebuild leaves the tree as it was.
+        let before = tree.clone();
+        let bad = BuildParams {
+            ci_over_ct: -1.0,
+            ..params
+        };
+        assert!(builder.rebuild(&mut tree, &big, &bad).is_err());
+        assert!(same_tree(&tree, &before) && tree.bounds == before.bounds);
+    }
+
+    #[cfg(feature = "parallel")]
     #[test]
     fn one_thread_and_many_threads_build_the_same_tree() {
         // 20k triangles: several nodes above the parallel threshold.

@@ -23,18 +23,6 @@ pub(super) struct Layout {
     max_depth: u32,
 }
 
-/// What [`Layout::finish`] returns.
-pub(super) struct FinishedLayout {
-    /// Nodes, root first.
-    pub nodes: Vec<Node>,
-    /// Leaf records, the shared empty one first.
-    pub leaves: Vec<LeafRecord>,
-    /// Mesh triangle ids in leaf order.
-    pub ids: Vec<u32>,
-    /// Depth of the deepest leaf.
-    pub max_depth: u32,
-}
-
 fn too_big(what: &str) -> Error {
     Error::InvalidParameter {
         name: "max_depth",
@@ -129,16 +117,28 @@ impl Layout {
         Ok(())
     }
 
-    /// The final arrays, with the shared empty record at index 0.
-    pub fn finish(self) -> FinishedLayout {
-        let mut leaves = Vec::with_capacity(self.records.len() + 1);
+    /// Empties the layout, keeping its buffers.
+    pub fn clear(&mut self) {
+        self.nodes.clear();
+        self.records.clear();
+        self.ids.clear();
+        self.max_depth = 0;
+    }
+
+    /// Moves the final arrays into a tree's: `nodes` and `ids` are swapped (the layout keeps
+    /// the old buffers for its next build), `leaves` gets the shared empty record at index 0
+    /// and then the records. Returns the depth of the deepest leaf.
+    pub fn finish_into(
+        &mut self,
+        nodes: &mut Vec<Node>,
+        leaves: &mut Vec<LeafRecord>,
+        ids: &mut Vec<u32>,
+    ) -> u32 {
+        std::mem::swap(nodes, &mut self.nodes);
+        std::mem::swap(ids, &mut self.ids);
+        leaves.clear();
         leaves.push(EMPTY_RECORD);
         leaves.extend_from_slice(&self.records);
-        FinishedLayout {
-            nodes: self.nodes,
-            leaves,
-            ids: self.ids,
-            max_depth: self.max_depth,
-        }
+        self.max_depth
     }
 }

@@ -10,6 +10,7 @@ mod stats;
 
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
 
+pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
 

@@ -7,7 +7,7 @@
 use std::time::Instant;
 
 use kdbeam::render::{self, Camera};
-use kdbeam::{BuildParams, KdTree, Tracer};
+use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Tracer};
 
 use super::bench::{median_seconds, print_json_or, scene_names};
 use super::{load_scene, packet_shape, thread_pool};
@@ -56,6 +56,9 @@ struct Row {
     build_ms: f64,
     /// Mesh triangles built per second, in millions.
     build_mtris_per_s: f64,
+    /// The kd-tree rebuilt into the previous tree with one [`KdTreeBuilder`] (moving
+    /// geometry); none for Embree.
+    rebuild_ms: Option<f64>,
     /// The kd-tree's SAH cost ([`kdbeam::BuildStats::sah_cost`]); none for Embree.
     sah_cost: Option<f64>,
     frame_ms: f64,
@@ -74,7 +77,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
-            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>9} {:>11} {:>13}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>11} {:>9} {:>11} {:>13}",
             "scene",
             "triangles",
             "struct",
@@ -82,6 +85,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
             "threads",
             "build ms",
             "M tri/s",
+            "rebuild ms",
             "SAH cost",
             "frame ms",
             "build+frame"
@@ -90,18 +94,20 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
     for scene in scenes {
         let (name, mesh) = load_scene(scene)?;
         let camera = Camera::standard(&mesh.bounds(), args.size.0, args.size.1);
-        let row = |structure, setting, build: f64, sah_cost, frame: f64| Row {
-            scene: name.clone(),
-            triangles: mesh.triangle_count(),
-            structure,
-            setting,
-            threads: args.threads,
-            build_ms: 1e3 * build,
-            build_mtris_per_s: mesh.triangle_count() as f64 / build / 1e6,
-            sah_cost,
-            frame_ms: 1e3 * frame,
-            build_plus_frame_ms: 1e3 * (build + frame),
-        };
+        let row =
+            |structure, setting, build: f64, rebuild: Option<f64>, sah_cost, frame: f64| Row {
+                scene: name.clone(),
+                triangles: mesh.triangle_count(),
+                structure,
+                setting,
+                threads: args.threads,
+                build_ms: 1e3 * build,
+                build_mtris_per_s: mesh.triangle_count() as f64 / build / 1e6,
+                rebuild_ms: rebuild.map(|s| 1e3 * s),
+                sah_cost,
+                frame_ms: 1e3 * frame,
+                build_plus_frame_ms: 1e3 * (build + frame),
+            };
         let settings = args.ci_over_ct.iter().flat_map(|&ci_over_ct| {
             args.exact_search_max
                 .iter()
@@ -114,26 +120,33 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
                 ..BuildParams::default()
             };
             params.validate()?;
-            let (build, sah_cost, frame) =
-                pool.install(|| -> kdbeam::Result<(f64, f64, f64)> {
+            let (build, rebuild, sah_cost, frame) =
+                pool.install(|| -> kdbeam::Result<(f64, f64, f64, f64)> {
                     let build = median_seconds(args.reps, || {
                         let start = Instant::now();
                         KdTree::build(&mesh, &params)?;
                         Ok(start.elapsed().as_secs_f64())
                     })?;
-                    let tree = KdTree::build(&mesh, &params)?;
+                    let mut builder = KdTreeBuilder::new();
+                    let mut tree = builder.build(&mesh, &params)?;
+                    let rebuild = median_seconds(args.reps, || {
+                        let start = Instant::now();
+                        builder.rebuild(&mut tree, &mesh, &params)?;
+                        Ok(start.elapsed().as_secs_f64())
+                    })?;
                     let tracer = Tracer::new(&tree).with_packet(shape);
                     render::trace_primary(&tracer, &camera, &|_| {});
                     let frame = median_seconds(args.reps, || {
                         Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
                     })?;
-                    Ok((build, tree.stats().sah_cost, frame))
+                    Ok((build, rebuild, tree.stats().sah_cost, frame))
                 })?;
             print_row(
                 &row(
                     "kdtree",
                     format!("ci={ci_over_ct} exact≤{exact_search_max}"),
                     build,
+                    Some(rebuild),
                     Some(sah_cost),
                     frame,
                 ),
@@ -168,6 +181,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
                         format!("quality={}", quality.name()),
                         build,
                         None,
+                        None,
                         frame,
                     ),
                     args.json,
@@ -181,7 +195,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>9} {:>11.1} {:>13.1}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>11} {:>9} {:>11.1} {:>13.1}",
             r.scene,
             r.triangles,
             r.structure,
@@ -189,6 +203,7 @@ fn print_row(r: &Row, json: bool) {
             r.threads,
             r.build_ms,
             r.build_mtris_per_s,
+            r.rebuild_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
             r.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
             r.frame_ms,
             r.build_plus_frame_ms
