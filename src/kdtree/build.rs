@@ -21,7 +21,8 @@
 //! their event lists sorted through the splits, as Wald & Havran do (12% more); counting each
 //! candidate's sides directly, without sorting, in nodes of at most 16 triangles (4%); and
 //! sweeping the sorted events at each search of a node instead of storing its candidates once
-//! (5%). The default threshold and the bin count were chosen by measured build time and SAH
+//! (5%). Evaluating the candidates four at a time in SIMD lanes changed neither the count nor
+//! the time. The default threshold and the bin count were chosen by measured build time and SAH
 //! tree cost on the shared scenes.
 //!
 //! A node's references (ids and clipped boxes) are a run of one per-thread stack ([`Refs`]):
