@@ -481,7 +481,7 @@ fn every_exact_search_threshold_satisfies_every_invariant() {
             };
             let tree = build_and_check(mesh, &p);
             println!("{name} exact ≤ {exact_search_max}: {}", tree.stats());
-            costs.push(tree.stats().sah_cost);
+            costs.push(tree.sah_cost(p.ci_over_ct));
         }
         // The exact search finds the cheapest plane of each node, binning an estimate. Greedy
         // choices do not make the exact tree always cheaper, but binning everything must not be

@@ -3,9 +3,9 @@
 //!
 //! A node is its triangles (mesh ids) with their boxes clipped to its cell. At a node:
 //! 1. the cheapest plane is searched for: in a node of more than
-//!    [`BuildParams::exact_search_max`] triangles (default 64) among
-//!    binned planes ([`Bins`]: the 31 boundaries of 32 bins per axis across the boxes' union,
-//!    and the union's faces; Hunt, Mark & Stoll 2006, Shevtsov et al. 2007), whose counts are
+//!    [`BuildParams::exact_search_max`] triangles (default 64) among binned planes ([`Bins`]:
+//!    the 31 boundaries of 32 bins per axis across the boxes' union, and the union's faces;
+//!    Hunt, Mark & Stoll 2006, Shevtsov et al. 2007), whose counts are
 //!    estimates at the boundaries; in a smaller one among every event plane, with exact counts,
 //!    as Wald & Havran do: the boxes' events are sorted per axis and swept once
 //!    ([`Candidates`]);
@@ -42,7 +42,6 @@ use super::clip::split_clipped_bounds;
 use super::events::{push_box_events, unkey, Event};
 use super::layout::Layout;
 use super::sah::{Bins, Candidates, CostModel, Split};
-use super::stats::sah_cost;
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
 
@@ -265,9 +264,6 @@ impl KdTreeBuilder {
         tree.mesh_triangles = n;
         let build_time = started.elapsed();
         let (nodes, leaves, ids) = (&tree.nodes, &tree.leaves, &tree.ids);
-        let sah_cost = sah_cost(nodes, bounds, params.ci_over_ct, |record| {
-            leaves[record as usize].count
-        });
         tree.stats = BuildStats {
             triangles: n,
             nodes: nodes.len(),
@@ -278,7 +274,6 @@ impl KdTreeBuilder {
             bytes: nodes.len() * size_of::<Node>()
                 + leaves.len() * size_of::<LeafRecord>()
                 + ids.len() * (size_of::<Triangle>() + size_of::<KsTriangle>() + size_of::<u32>()),
-            sah_cost,
             build_time,
         };
         Ok(())

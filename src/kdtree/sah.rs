@@ -315,8 +315,8 @@ fn bin_index(t: f32) -> usize {
 /// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
 /// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
 /// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]` (up to
-/// f32 rounding, which only blurs the counts), the last bin closed. Kept across the empty-space cuts of a node, which change its cell, not its
-/// triangles.
+/// f32 rounding, which only blurs the counts), the last bin closed. Kept across the
+/// empty-space cuts of a node, which change its cell, not its triangles.
 pub(super) struct Bins {
     union: Aabb,
     /// Bins per unit of length, per axis (infinite on a flat axis).

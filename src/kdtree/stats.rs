@@ -24,22 +24,14 @@ pub struct BuildStats {
     pub max_depth: u32,
     /// Bytes of nodes, leaf records and leaf-ordered triangle arrays.
     pub bytes: usize,
-    /// The tree's SAH cost ([`sah_cost`]): the expected work of a ray crossing the root box, in
-    /// units of one traversal step. The measure of tree quality the build minimises greedily;
-    /// lower is better, for the same `ci_over_ct`.
-    pub sah_cost: f64,
     /// Wall-clock time of the build.
     #[serde(serialize_with = "seconds")]
     pub build_time: Duration,
 }
 
-/// The SAH cost of a tree (MacDonald & Booth 1990; Wald & Havran 2006, eq. 1):
-/// `Σ_inner SA(cell)/SA(root) + Ci/Ct · Σ_leaf SA(cell)/SA(root) · n(leaf)`, summed in f64
-/// over the cells the splits make from `root`, with `leaf_count(record)` the triangles of a
-/// leaf's record.
-///
-/// Edge cases: when the root's surface area is 0 (a mesh on a line or a point) or not finite,
-/// every cell counts with weight 1; an empty tree (one empty leaf) costs 0.
+/// The SAH cost of a tree ([`super::KdTree::sah_cost`]; MacDonald & Booth 1990; Wald &
+/// Havran 2006, eq. 1), summed in f64 over the cells the splits make from `root`, with
+/// `leaf_count(record)` the triangles of a leaf's record.
 pub(super) fn sah_cost(
     nodes: &[Node],
     root: Aabb,
@@ -116,7 +108,7 @@ impl fmt::Display for BuildStats {
         write!(
             f,
             "{} triangles, {} nodes ({:.2}/triangle), {} leaves ({} non-empty, {:.2} triangles each), \
-             depth {}, SAH cost {:.2}, {:.1} MiB ({:.0} B/triangle), built in {:.3} s ({:.2} M triangles/s)",
+             depth {}, {:.1} MiB ({:.0} B/triangle), built in {:.3} s ({:.2} M triangles/s)",
             self.triangles,
             self.nodes,
             self.nodes_per_triangle(),
@@ -124,7 +116,6 @@ impl fmt::Display for BuildStats {
             self.nonempty_leaves,
             self.mean_leaf_size(),
             self.max_depth,
-            self.sah_cost,
             self.bytes as f64 / (1 << 20) as f64,
             self.bytes_per_triangle(),
             self.build_time.as_secs_f64(),

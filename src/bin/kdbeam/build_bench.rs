@@ -59,7 +59,7 @@ struct Row {
     /// The kd-tree rebuilt into the previous tree with one [`KdTreeBuilder`] (moving
     /// geometry); none for Embree.
     rebuild_ms: Option<f64>,
-    /// The kd-tree's SAH cost ([`kdbeam::BuildStats::sah_cost`]); none for Embree.
+    /// The kd-tree's SAH cost ([`KdTree::sah_cost`]); none for Embree.
     sah_cost: Option<f64>,
     frame_ms: f64,
     build_plus_frame_ms: f64,
@@ -139,7 +139,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
                     let frame = median_seconds(args.reps, || {
                         Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
                     })?;
-                    Ok((build, rebuild, tree.stats().sah_cost, frame))
+                    Ok((build, rebuild, tree.sah_cost(ci_over_ct), frame))
                 })?;
             print_row(
                 &row(

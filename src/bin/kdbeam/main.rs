@@ -208,7 +208,8 @@ fn render(args: RenderArgs) -> kdbeam::Result<()> {
         let tree = build_tree(&mesh, &args.tree)?;
         let stats = tree.stats();
         println!("scene      {name}: {} triangles", mesh.triangle_count());
-        println!("kd-tree    {stats}");
+        let sah_cost = tree.sah_cost(args.tree.ci_over_ct);
+        println!("kd-tree    {stats}, SAH cost {sah_cost:.2}");
         let tracer = tracer(&tree, &args)?;
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         let (bar, start) = delayed_bar(u64::from(camera.height), "tracing");
