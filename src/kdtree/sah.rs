@@ -3,10 +3,14 @@
 //! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
 
 use glam::Vec3A;
-use kdbeam_kernels::{Aabb, Vec3};
+use kdbeam_kernels::split_planes::{
+    cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
+};
+use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes, Vec3};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
 use super::BuildParams;
+use crate::trace::dispatch::run_on;
 
 /// The SAH costs in units of one traversal step.
 #[derive(Clone, Copy, Debug)]
@@ -73,6 +77,56 @@ impl CostModel {
                 if best.is_none_or(|b| found.cost < b.cost) {
                     best = Some(found);
                 }
+            }
+        }
+        best
+    }
+
+    /// [`CostModel::best_split`] among a small node's [`CountedPlanes`], computed in the lanes of
+    /// `isa`: the same plane, cost and counts bit for bit (the planes are the same, the weights
+    /// are rounded alike, and the ties are broken alike), whatever the ISA.
+    pub fn best_counted_split(
+        &self,
+        isa: Isa,
+        planes: &CountedPlanes,
+        cell: &Aabb,
+    ) -> Option<Split> {
+        let cells = [0, 1, 2].map(|axis| {
+            AxisGeometry::new(cell, axis).map(|g| AxisCell {
+                base: g.base,
+                slope: g.slope,
+                lo: g.lo,
+                hi: g.hi,
+                empty_factor: self.empty_factor,
+            })
+        });
+        let found = run_on(isa, Cheapest { planes, cells });
+        let mut best: Option<Split> = None;
+        for (axis, (found, counts)) in found.into_iter().zip(&planes.axes).enumerate() {
+            let Some(CheapestPlane {
+                index,
+                weight,
+                planar_below,
+            }) = found
+            else {
+                continue;
+            };
+            let cost = 1.0 + self.ci_over_ct * weight;
+            if best.is_none_or(|b| cost < b.cost) {
+                let planar = counts.planar[index] as u32;
+                let (pb, pa) = if planar_below {
+                    (planar, 0)
+                } else {
+                    (0, planar)
+                };
+                best = Some(Split {
+                    axis,
+                    pos_key: key(counts.pos[index]),
+                    planar_below,
+                    cost,
+                    below_count: counts.below[index] as u32 + pb,
+                    above_count: counts.above[index] as u32 + pa,
+                });
             }
         }
         best
@@ -249,6 +303,111 @@ impl Candidates {
                 planar = 0;
             }
         }
+    }
+}
+
+/// A small node's candidate planes, counted in SIMD lanes instead of swept
+/// ([`kdbeam_kernels::split_planes`]): per axis, a plane at each face of each box, with the
+/// boxes below, above and in it. The same planes and counts as [`Candidates`] (each position
+/// may appear twice), kept likewise across the node's empty-space cuts.
+#[derive(Default)]
+pub(super) struct CountedPlanes {
+    axes: [AxisCounts; 3],
+}
+
+/// One axis of [`CountedPlanes`].
+#[derive(Default)]
+struct AxisCounts {
+    /// The boxes' lower and upper faces.
+    lo: Vec<f32>,
+    hi: Vec<f32>,
+    /// Is some box flat on this axis?
+    flat: bool,
+    /// The planes: those of `lo`, then of `hi`, strictly inside the cell, then NaN up to a
+    /// multiple of 8 lanes.
+    pos: Vec<f32>,
+    below: Vec<f32>,
+    above: Vec<f32>,
+    planar: Vec<f32>,
+}
+
+impl CountedPlanes {
+    /// Replaces the contents with the planes of `boxes` (at most 2²³) strictly inside `cell`,
+    /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
+    /// outside it can come back.)
+    pub fn count(&mut self, isa: Isa, boxes: &[Aabb], cell: &Aabb) {
+        for (axis, counts) in self.axes.iter_mut().enumerate() {
+            counts.lo.clear();
+            counts.hi.clear();
+            counts.lo.extend(boxes.iter().map(|b| b.min[axis]));
+            counts.hi.extend(boxes.iter().map(|b| b.max[axis]));
+            counts.flat = counts.lo.iter().zip(&counts.hi).any(|(lo, hi)| lo == hi);
+            let (lo, hi) = (cell.min[axis], cell.max[axis]);
+            counts.pos.clear();
+            counts.pos.extend(
+                counts
+                    .lo
+                    .iter()
+                    .chain(&counts.hi)
+                    .filter(|&&p| p > lo && p < hi),
+            );
+            let len = counts.pos.len().next_multiple_of(8);
+            counts.pos.resize(len, f32::NAN);
+            for list in [&mut counts.below, &mut counts.above, &mut counts.planar] {
+                list.resize(len, 0.0);
+            }
+        }
+        run_on(isa, Count(self));
+    }
+}
+
+/// [`CountedPlanes::count`]'s kernel calls, in one ISA entry point.
+struct Count<'a>(&'a mut CountedPlanes);
+
+impl LaneTask for Count<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) {
+        for c in &mut self.0.axes {
+            let len = c.pos.len();
+            count_planes(
+                l,
+                &c.lo,
+                &c.hi,
+                c.flat,
+                &c.pos,
+                &mut c.below[..len],
+                &mut c.above[..len],
+                &mut c.planar[..len],
+            );
+        }
+    }
+}
+
+/// [`CostModel::best_counted_split`]'s kernel calls: the cheapest plane of each axis with a cell
+/// span, in one ISA entry point.
+struct Cheapest<'a> {
+    planes: &'a CountedPlanes,
+    cells: [Option<AxisCell>; 3],
+}
+
+impl LaneTask for Cheapest<'_> {
+    type Output = [Option<CheapestPlane>; 3];
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> Self::Output {
+        let mut found = [None; 3];
+        for ((found, c), cell) in found.iter_mut().zip(&self.planes.axes).zip(&self.cells) {
+            let Some(cell) = cell else { continue };
+            let len = c.pos.len();
+            let planes = AxisPlanes {
+                pos: &c.pos,
+                below: &c.below[..len],
+                above: &c.above[..len],
+                planar: &c.planar[..len],
+            };
+            *found = cheapest_plane(l, &planes, cell);
+        }
+        found
     }
 }
 

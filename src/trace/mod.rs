@@ -4,7 +4,7 @@
 //! ISA and culling.
 
 mod culling;
-mod dispatch;
+pub(crate) mod dispatch;
 pub mod leaf;
 mod packet;
 pub mod reference;

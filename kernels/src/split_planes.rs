@@ -1,0 +1,192 @@
+//! The SAH split-plane search over a small set of boxes, in SIMD lanes: every candidate plane on
+//! one axis is counted against every box, then costed, `WIDTH` planes at a time.
+//!
+//! This is the exact search of Wald & Havran ("On building fast kd-trees for ray tracing, and on
+//! doing that in O(N log N)", RT06, §4.2) without its sort. Their sweep visits the sorted events
+//! and counts, at each plane `p`, the boxes reaching below it, above it, and lying in it. For a
+//! few dozen boxes it is cheaper to count those directly, `O(n²)` but branch-free: for each box
+//! and each lane of planes, `lo < p`, `hi > p` and `lo = hi = p` are one comparison each. The
+//! counts are the sweep's exactly:
+//!
+//! - `below(p) = #{lo < p}`: boxes that start before `p` (flat ones lying before it included);
+//! - `above(p) = #{hi > p}`: boxes that end after `p`;
+//! - `planar(p) = #{lo = hi = p}`: flat boxes lying in `p`, counted on neither side.
+//!
+//! Counts are `f32`: exact for the at most 2²⁴ boxes a caller may pass, and already in the form
+//! the cost needs.
+
+use crate::lanes::{LaneF32, Lanes};
+
+/// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
+/// slice belongs to plane `k`. All four slices have the same length, a multiple of the widest
+/// `WIDTH` (8); unused entries hold a NaN position, which no cell contains.
+#[derive(Clone, Copy, Debug)]
+pub struct AxisPlanes<'a> {
+    /// Positions.
+    pub pos: &'a [f32],
+    /// Boxes reaching below each plane: `#{lo < p}`.
+    pub below: &'a [f32],
+    /// Boxes reaching above each plane: `#{hi > p}`.
+    pub above: &'a [f32],
+    /// Flat boxes lying in each plane: `#{lo = hi = p}`.
+    pub planar: &'a [f32],
+}
+
+/// How a cell's surface area splits at a plane on one axis, and the SAH weights; the caller
+/// derives it from the cell (kdbeam's kd-tree build does, in `AxisGeometry`).
+///
+/// `P_below(p) = base + slope · (p − lo)` and `P_above(p) = base + slope · (hi − p)` are the
+/// children's surface areas over the cell's.
+#[derive(Clone, Copy, Debug)]
+pub struct AxisCell {
+    /// A child's area ratio at zero width.
+    pub base: f32,
+    /// Its growth per unit of width.
+    pub slope: f32,
+    /// The cell's lower face on this axis.
+    pub lo: f32,
+    /// The cell's upper face on this axis.
+    pub hi: f32,
+    /// `λ = 1 − empty_bonus`: the factor on a plane's weight when one side holds no box.
+    pub empty_factor: f32,
+}
+
+/// The cheapest plane of an axis ([`cheapest_plane`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CheapestPlane {
+    /// Its index in the [`AxisPlanes`].
+    pub index: usize,
+    /// Its weight `λ · (P_below · N_below + P_above · N_above)`.
+    pub weight: f32,
+    /// Do the boxes lying in it go below (else above)?
+    pub planar_below: bool,
+}
+
+/// Counts the boxes `[lo[i], hi[i]]` (`i < lo.len()`) on each side of each plane `pos[k]`:
+/// `below[k] = #{lo < p}`, `above[k] = #{hi > p}`, and `planar[k] = #{lo = hi = p}` when `flat`
+/// (some box is flat on this axis), else 0.
+///
+/// Edge cases: a NaN position counts nothing (every comparison is false); `-0.0` and `+0.0` are
+/// the same plane.
+///
+/// # Panics
+/// If `hi` is shorter than `lo`, or `below`, `above` or `planar` shorter than `pos`, or the length
+/// of `pos` is not a multiple of `L::WIDTH`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn count_planes<L: Lanes>(
+    l: L,
+    lo: &[f32],
+    hi: &[f32],
+    flat: bool,
+    pos: &[f32],
+    below: &mut [f32],
+    above: &mut [f32],
+    planar: &mut [f32],
+) {
+    assert!(hi.len() >= lo.len() && pos.len().is_multiple_of(L::WIDTH));
+    assert!(below.len() >= pos.len() && above.len() >= pos.len() && planar.len() >= pos.len());
+    let boxes = lo.iter().zip(hi);
+    let (zero, one) = (l.splat(0.0), l.splat(1.0));
+    let count = |m| L::F32::select(m, one, zero);
+    for k in (0..pos.len()).step_by(L::WIDTH) {
+        let p = l.load(&pos[k..]);
+        let (mut b, mut a, mut f) = (zero, zero, zero);
+        if flat {
+            for (&lo, &hi) in boxes.clone() {
+                let (lo, hi) = (l.splat(lo), l.splat(hi));
+                b = b + count(lo.lt(p));
+                a = a + count(hi.gt(p));
+                f = f + count(lo.eq(p) & hi.eq(p));
+            }
+        } else {
+            for (&lo, &hi) in boxes.clone() {
+                b = b + count(l.splat(lo).lt(p));
+                a = a + count(l.splat(hi).gt(p));
+            }
+        }
+        l.store(b, &mut below[k..]);
+        l.store(a, &mut above[k..]);
+        l.store(f, &mut planar[k..]);
+    }
+}
+
+/// The cheapest of `planes` strictly inside the cell's span `(cell.lo, cell.hi)`; `None` when
+/// none is.
+///
+/// A plane's weight is `λ · (P_below · N_below + P_above · N_above)`, with `λ =
+/// cell.empty_factor` when a side is empty, else 1; the boxes lying in the plane are tried on
+/// either side, below when both weigh the same. Each product and sum is rounded as written
+/// (never fused), so every ISA returns the same plane and weight bit for bit, and so does a
+/// scalar loop over the planes in any order.
+///
+/// Ties: the lowest weight, then the lowest position, then the lowest index (equal positions have
+/// equal counts, hence equal weights).
+///
+/// # Panics
+/// If the slices of `planes` differ in length or are not a multiple of `L::WIDTH` long.
+#[inline(always)]
+pub fn cheapest_plane<L: Lanes>(
+    l: L,
+    planes: &AxisPlanes<'_>,
+    cell: &AxisCell,
+) -> Option<CheapestPlane> {
+    let len = planes.pos.len();
+    assert!(len.is_multiple_of(L::WIDTH));
+    assert!(planes.below.len() == len && planes.above.len() == len && planes.planar.len() == len);
+    let (zero, one) = (l.splat(0.0), l.splat(1.0));
+    let (base, slope) = (l.splat(cell.base), l.splat(cell.slope));
+    let (lo, hi) = (l.splat(cell.lo), l.splat(cell.hi));
+    let empty_factor = l.splat(cell.empty_factor);
+    let weighted = |pb: L::F32, pa: L::F32, nb: L::F32, na: L::F32| {
+        let lambda = L::F32::select(nb.eq(zero) | na.eq(zero), empty_factor, one);
+        lambda * (pb * nb + pa * na)
+    };
+    let mut best_weight = l.splat(f32::INFINITY);
+    let (mut best_pos, mut best_index, mut best_planar_below) = (zero, zero, zero);
+    let mut index = [0.0f32; 8];
+    for (i, x) in index.iter_mut().enumerate().take(L::WIDTH) {
+        *x = i as f32;
+    }
+    let (mut lane_index, step) = (l.load(&index), l.splat(L::WIDTH as f32));
+    for k in (0..len).step_by(L::WIDTH) {
+        let p = l.load(&planes.pos[k..]);
+        let (nb, na) = (l.load(&planes.below[k..]), l.load(&planes.above[k..]));
+        let np = l.load(&planes.planar[k..]);
+        let (pb, pa) = (base + slope * (p - lo), base + slope * (hi - p));
+        let with_below = weighted(pb, pa, nb + np, na);
+        let with_above = weighted(pb, pa, nb, na + np);
+        let planar_below = with_below.le(with_above);
+        let weight = L::F32::select(planar_below, with_below, with_above);
+        let better = (p.gt(lo) & p.lt(hi))
+            & (weight.lt(best_weight) | (weight.eq(best_weight) & p.lt(best_pos)));
+        best_weight = L::F32::select(better, weight, best_weight);
+        best_pos = L::F32::select(better, p, best_pos);
+        best_index = L::F32::select(better, lane_index, best_index);
+        best_planar_below = L::F32::select(
+            better,
+            L::F32::select(planar_below, one, zero),
+            best_planar_below,
+        );
+        lane_index = lane_index + step;
+    }
+    let mut best: Option<(f32, f32, f32, f32)> = None;
+    for i in 0..L::WIDTH {
+        let lane = (
+            best_weight.extract(i),
+            best_pos.extract(i),
+            best_index.extract(i),
+            best_planar_below.extract(i),
+        );
+        if lane.0 < f32::INFINITY
+            && best.is_none_or(|b| lane.0 < b.0 || (lane.0 == b.0 && (lane.1, lane.2) < (b.1, b.2)))
+        {
+            best = Some(lane);
+        }
+    }
+    best.map(|(weight, _, index, planar_below)| CheapestPlane {
+        index: index as usize,
+        weight,
+        planar_below: planar_below != 0.0,
+    })
+}

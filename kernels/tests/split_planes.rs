@@ -1,0 +1,209 @@
+//! The split-plane counts and costs on every ISA against plain loops over boxes and planes:
+//! flat boxes, shared faces, planes on the cell's faces, `±0`, and NaN padding.
+#![cfg(feature = "std")] // `run_on` detects the CPU.
+
+mod common;
+
+use common::Rng;
+use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::split_planes::{
+    cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
+};
+use kdbeam_kernels::{Isa, LaneTask, Lanes};
+
+/// Boxes on one axis, with the planes at their faces (padded with NaN to a multiple of 8).
+struct Case {
+    lo: Vec<f32>,
+    hi: Vec<f32>,
+    flat: bool,
+    pos: Vec<f32>,
+}
+
+/// `n` boxes with faces on a coarse grid (so that faces are shared), some flat, one at `-0.0`.
+fn case(rng: &mut Rng, n: usize) -> Case {
+    let grid = |rng: &mut Rng| (rng.below(9) as f32 - 4.0) * 0.25;
+    let (mut lo, mut hi) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        let (a, b) = (grid(rng), grid(rng));
+        let (a, b) = if rng.chance(0.2) {
+            (a, a)
+        } else {
+            (a.min(b), a.max(b))
+        };
+        let a = if i == 0 { -0.0 } else { a };
+        lo.push(a);
+        hi.push(b.max(a));
+    }
+    let flat = lo.iter().zip(&hi).any(|(a, b)| a == b);
+    let mut pos: Vec<f32> = lo.iter().chain(&hi).copied().collect();
+    pos.resize(pos.len().div_ceil(8) * 8, f32::NAN);
+    Case { lo, hi, flat, pos }
+}
+
+/// The counts by definition, one plane and one box at a time.
+fn reference_counts(c: &Case) -> [Vec<f32>; 3] {
+    let count = |f: &dyn Fn(f32, f32, f32) -> bool, p: f32| {
+        c.lo.iter()
+            .zip(&c.hi)
+            .filter(|&(&lo, &hi)| f(lo, hi, p))
+            .count() as f32
+    };
+    let below = c
+        .pos
+        .iter()
+        .map(|&p| count(&|lo, _, p| lo < p, p))
+        .collect();
+    let above = c
+        .pos
+        .iter()
+        .map(|&p| count(&|_, hi, p| hi > p, p))
+        .collect();
+    let planar = c
+        .pos
+        .iter()
+        .map(|&p| count(&|lo, hi, p| lo == p && hi == p, p))
+        .collect();
+    [below, above, planar]
+}
+
+/// The cheapest plane by definition: planes in index order, a plane replacing the best when it
+/// weighs less, or the same at a lower position.
+fn reference_cheapest(planes: &AxisPlanes<'_>, cell: &AxisCell) -> Option<CheapestPlane> {
+    let weighted = |pb: f32, pa: f32, nb: f32, na: f32| {
+        let lambda = if nb == 0.0 || na == 0.0 {
+            cell.empty_factor
+        } else {
+            1.0
+        };
+        lambda * (pb * nb + pa * na)
+    };
+    let mut best: Option<(CheapestPlane, f32)> = None;
+    for (index, &p) in planes.pos.iter().enumerate() {
+        if !(p > cell.lo && p < cell.hi) {
+            continue;
+        }
+        let (pb, pa) = (
+            cell.base + cell.slope * (p - cell.lo),
+            cell.base + cell.slope * (cell.hi - p),
+        );
+        let (nb, na, np) = (
+            planes.below[index],
+            planes.above[index],
+            planes.planar[index],
+        );
+        let (below, above) = (weighted(pb, pa, nb + np, na), weighted(pb, pa, nb, na + np));
+        let (weight, planar_below) = if below <= above {
+            (below, true)
+        } else {
+            (above, false)
+        };
+        if best.is_none_or(|(b, bp)| weight < b.weight || (weight == b.weight && p < bp)) {
+            best = Some((
+                CheapestPlane {
+                    index,
+                    weight,
+                    planar_below,
+                },
+                p,
+            ));
+        }
+    }
+    best.map(|(b, _)| b)
+}
+
+struct Count<'a>(&'a Case);
+
+impl LaneTask for Count<'_> {
+    type Output = [Vec<f32>; 3];
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> [Vec<f32>; 3] {
+        let c = self.0;
+        let mut out = [(); 3].map(|_| vec![-1.0; c.pos.len()]);
+        let [below, above, planar] = &mut out;
+        count_planes(l, &c.lo, &c.hi, c.flat, &c.pos, below, above, planar);
+        out
+    }
+}
+
+struct Cheapest<'a>(AxisPlanes<'a>, AxisCell);
+
+impl LaneTask for Cheapest<'_> {
+    type Output = Option<CheapestPlane>;
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> Option<CheapestPlane> {
+        cheapest_plane(l, &self.0, &self.1)
+    }
+}
+
+#[test]
+fn every_isa_counts_and_costs_as_the_definitions() {
+    let mut rng = Rng::new(11);
+    let mut cheapest_found = 0;
+    for n in (1..=40).chain([64, 65]) {
+        for _ in 0..8 {
+            let c = case(&mut rng, n);
+            let counts = reference_counts(&c);
+            let planes = AxisPlanes {
+                pos: &c.pos,
+                below: &counts[0],
+                above: &counts[1],
+                planar: &counts[2],
+            };
+            // Cells reaching past the boxes, and cells whose faces are box faces (those planes
+            // are not strictly inside, so never chosen).
+            let (lo, hi) = if rng.chance(0.5) {
+                (-1.5, 1.5)
+            } else {
+                (-0.5, 0.75)
+            };
+            let cell = AxisCell {
+                base: rng.range(0.1, 0.5),
+                slope: rng.range(0.1, 1.0),
+                lo,
+                hi,
+                empty_factor: rng.range(0.2, 1.0),
+            };
+            let expected = reference_cheapest(&planes, &cell);
+            cheapest_found += usize::from(expected.is_some());
+            for isa in Isa::available() {
+                // NaN planes count nothing; without flat boxes, nothing is planar.
+                let got = run_on(isa, Count(&c)).unwrap();
+                assert_eq!(got, counts, "{isa}, {n} boxes");
+                let cheapest = run_on(isa, Cheapest(planes, cell)).unwrap();
+                assert_eq!(cheapest, expected, "{isa}, {n} boxes");
+            }
+        }
+    }
+    assert!(cheapest_found > 200, "{cheapest_found}");
+}
+
+#[test]
+fn a_span_with_no_plane_strictly_inside_has_no_cheapest() {
+    let pos = [
+        0.0,
+        1.0,
+        f32::NAN,
+        f32::NAN,
+        f32::NAN,
+        f32::NAN,
+        f32::NAN,
+        f32::NAN,
+    ];
+    let counts = [1.0; 8];
+    let planes = AxisPlanes {
+        pos: &pos,
+        below: &counts,
+        above: &counts,
+        planar: &counts,
+    };
+    let cell = AxisCell {
+        base: 0.5,
+        slope: 1.0,
+        lo: 0.0,
+        hi: 1.0,
+        empty_factor: 0.5,
+    };
+    for isa in Isa::available() {
+        assert_eq!(run_on(isa, Cheapest(planes, cell)).unwrap(), None, "{isa}");
+    }
+}
