@@ -336,28 +336,43 @@ impl CountedPlanes {
     /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
     /// outside it can come back.)
     pub fn count(&mut self, isa: Isa, boxes: &[Aabb], cell: &Aabb) {
-        for (axis, counts) in self.axes.iter_mut().enumerate() {
-            counts.lo.clear();
-            counts.hi.clear();
-            counts.lo.extend(boxes.iter().map(|b| b.min[axis]));
-            counts.hi.extend(boxes.iter().map(|b| b.max[axis]));
-            counts.flat = counts.lo.iter().zip(&counts.hi).any(|(lo, hi)| lo == hi);
-            let (lo, hi) = (cell.min[axis], cell.max[axis]);
-            counts.pos.clear();
-            counts.pos.extend(
-                counts
-                    .lo
-                    .iter()
-                    .chain(&counts.hi)
-                    .filter(|&&p| p > lo && p < hi),
-            );
-            let len = counts.pos.len().next_multiple_of(8);
-            counts.pos.resize(len, f32::NAN);
-            for list in [&mut counts.below, &mut counts.above, &mut counts.planar] {
-                list.resize(len, 0.0);
-            }
-        }
+        let [x, y, z] = &mut self.axes;
+        x.fill::<0>(boxes, cell);
+        y.fill::<1>(boxes, cell);
+        z.fill::<2>(boxes, cell);
         run_on(isa, Count(self));
+    }
+}
+
+impl AxisCounts {
+    /// Takes axis `AXIS` of `boxes`, and its planes strictly inside `cell`, without branches on
+    /// the data (which planes lie inside is as good as random).
+    fn fill<const AXIS: usize>(&mut self, boxes: &[Aabb], cell: &Aabb) {
+        let n = boxes.len();
+        self.lo.resize(n, 0.0);
+        self.hi.resize(n, 0.0);
+        for ((lo, hi), b) in self.lo.iter_mut().zip(&mut self.hi).zip(boxes) {
+            (*lo, *hi) = (b.min[AXIS], b.max[AXIS]);
+        }
+        self.flat = self
+            .lo
+            .iter()
+            .zip(&self.hi)
+            .fold(false, |f, (lo, hi)| f | (lo == hi));
+        let (lo, hi) = (cell.min[AXIS], cell.max[AXIS]);
+        let full = (2 * n).next_multiple_of(8);
+        self.pos.resize(full, f32::NAN);
+        let mut len = 0;
+        for &p in self.lo.iter().chain(&self.hi) {
+            self.pos[len] = p;
+            len += usize::from(p > lo && p < hi);
+        }
+        let padded = len.next_multiple_of(8);
+        self.pos[len..padded].fill(f32::NAN);
+        self.pos.truncate(padded);
+        for list in [&mut self.below, &mut self.above, &mut self.planar] {
+            list.resize(padded, 0.0);
+        }
     }
 }
 
