@@ -87,27 +87,50 @@ pub fn count_planes<L: Lanes>(
     assert!(hi.len() >= lo.len() && pos.len().is_multiple_of(L::WIDTH));
     assert!(below.len() >= pos.len() && above.len() >= pos.len() && planar.len() >= pos.len());
     let boxes = lo.iter().zip(hi);
-    let (zero, one) = (l.splat(0.0), l.splat(1.0));
-    let count = |m| L::F32::select(m, one, zero);
-    for k in (0..pos.len()).step_by(L::WIDTH) {
-        let p = l.load(&pos[k..]);
-        let (mut b, mut a, mut f) = (zero, zero, zero);
-        if flat {
-            for (&lo, &hi) in boxes.clone() {
-                let (lo, hi) = (l.splat(lo), l.splat(hi));
-                b = b + count(lo.lt(p));
-                a = a + count(hi.gt(p));
-                f = f + count(lo.eq(p) & hi.eq(p));
-            }
-        } else {
-            for (&lo, &hi) in boxes.clone() {
-                b = b + count(l.splat(lo).lt(p));
-                a = a + count(l.splat(hi).gt(p));
+    let one = l.splat(1.0);
+    // Two vectors of planes per pass over the boxes, so that each box is broadcast once for
+    // both; then the odd one out.
+    let pairs = pos.len() / (2 * L::WIDTH) * (2 * L::WIDTH);
+    for k in (0..pairs).step_by(2 * L::WIDTH) {
+        let (p, q) = (l.load(&pos[k..]), l.load(&pos[k + L::WIDTH..]));
+        let mut sums = [l.splat(0.0); 6];
+        for (&lo, &hi) in boxes.clone() {
+            let (lo, hi) = (l.splat(lo), l.splat(hi));
+            sums[0] = sums[0] + one.masked(lo.lt(p));
+            sums[1] = sums[1] + one.masked(lo.lt(q));
+            sums[2] = sums[2] + one.masked(hi.gt(p));
+            sums[3] = sums[3] + one.masked(hi.gt(q));
+            if flat {
+                sums[4] = sums[4] + one.masked(lo.eq(p) & hi.eq(p));
+                sums[5] = sums[5] + one.masked(lo.eq(q) & hi.eq(q));
             }
         }
-        l.store(b, &mut below[k..]);
-        l.store(a, &mut above[k..]);
-        l.store(f, &mut planar[k..]);
+        for (list, [at_p, at_q]) in [&mut *below, &mut *above, &mut *planar].into_iter().zip([
+            [sums[0], sums[1]],
+            [sums[2], sums[3]],
+            [sums[4], sums[5]],
+        ]) {
+            l.store(at_p, &mut list[k..]);
+            l.store(at_q, &mut list[k + L::WIDTH..]);
+        }
+    }
+    for k in (pairs..pos.len()).step_by(L::WIDTH) {
+        let p = l.load(&pos[k..]);
+        let mut sums = [l.splat(0.0); 3];
+        for (&lo, &hi) in boxes.clone() {
+            let (lo, hi) = (l.splat(lo), l.splat(hi));
+            sums[0] = sums[0] + one.masked(lo.lt(p));
+            sums[1] = sums[1] + one.masked(hi.gt(p));
+            if flat {
+                sums[2] = sums[2] + one.masked(lo.eq(p) & hi.eq(p));
+            }
+        }
+        for (list, sum) in [&mut *below, &mut *above, &mut *planar]
+            .into_iter()
+            .zip(sums)
+        {
+            l.store(sum, &mut list[k..]);
+        }
     }
 }
 
@@ -163,30 +186,24 @@ pub fn cheapest_plane<L: Lanes>(
         best_weight = L::F32::select(better, weight, best_weight);
         best_pos = L::F32::select(better, p, best_pos);
         best_index = L::F32::select(better, lane_index, best_index);
-        best_planar_below = L::F32::select(
-            better,
-            L::F32::select(planar_below, one, zero),
-            best_planar_below,
-        );
+        best_planar_below = L::F32::select(better, one.masked(planar_below), best_planar_below);
         lane_index = lane_index + step;
     }
-    let mut best: Option<(f32, f32, f32, f32)> = None;
-    for i in 0..L::WIDTH {
-        let lane = (
-            best_weight.extract(i),
-            best_pos.extract(i),
-            best_index.extract(i),
-            best_planar_below.extract(i),
-        );
-        if lane.0 < f32::INFINITY
-            && best.is_none_or(|b| lane.0 < b.0 || (lane.0 == b.0 && (lane.1, lane.2) < (b.1, b.2)))
-        {
-            best = Some(lane);
-        }
+    // Across the lanes by the same rule, without branches: the lowest weight, then among its
+    // lanes the lowest position, then the lowest index.
+    let weight = best_weight.reduce_min();
+    if weight == f32::INFINITY {
+        return None;
     }
-    best.map(|(weight, _, index, planar_below)| CheapestPlane {
+    let inf = l.splat(f32::INFINITY);
+    let lightest = best_weight.eq(l.splat(weight));
+    let lowest =
+        lightest & best_pos.eq(l.splat(L::F32::select(lightest, best_pos, inf).reduce_min()));
+    let index = L::F32::select(lowest, best_index, inf).reduce_min();
+    let first = lowest & best_index.eq(l.splat(index));
+    Some(CheapestPlane {
         index: index as usize,
         weight,
-        planar_below: planar_below != 0.0,
+        planar_below: best_planar_below.masked(first).reduce_max() != 0.0,
     })
 }

@@ -52,7 +52,7 @@ impl LaneTask for OpsVsScalar {
             } else {
                 |x, y, z| x * y + z
             };
-            let values: [(&str, L::F32, Reference); 11] = [
+            let values: [(&str, L::F32, Reference); 12] = [
                 ("add", va + vb, |x, y, _| x + y),
                 ("sub", va - vb, |x, y, _| x - y),
                 ("mul", va * vb, |x, y, _| x * y),
@@ -69,6 +69,11 @@ impl LaneTask for OpsVsScalar {
                         y
                     }
                 }),
+                (
+                    "masked",
+                    vc.masked(va.lt(vb)),
+                    |x, y, z| if x < y { z } else { 0.0 },
+                ),
                 ("splat", l.splat(c[0]), |_, _, _| f32::NAN),
             ];
             for (name, v, reference) in values {

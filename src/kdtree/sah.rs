@@ -323,8 +323,7 @@ struct AxisCounts {
     hi: Vec<f32>,
     /// Is some box flat on this axis?
     flat: bool,
-    /// The planes: those of `lo`, then of `hi`, strictly inside the cell, then NaN up to a
-    /// multiple of 8 lanes.
+    /// The planes: the faces strictly inside the cell, then NaN up to a multiple of 8 lanes.
     pos: Vec<f32>,
     below: Vec<f32>,
     above: Vec<f32>,
@@ -351,24 +350,21 @@ impl AxisCounts {
         let n = boxes.len();
         self.lo.resize(n, 0.0);
         self.hi.resize(n, 0.0);
+        self.pos.resize((2 * n).next_multiple_of(8), f32::NAN);
+        let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
+        let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
+        let (pos, mut len, mut flat) = (&mut self.pos[..], 0, false);
         for ((lo, hi), b) in self.lo.iter_mut().zip(&mut self.hi).zip(boxes) {
             (*lo, *hi) = (b.min[AXIS], b.max[AXIS]);
+            flat |= *lo == *hi;
+            pos[len] = *lo;
+            len += inside(*lo);
+            pos[len] = *hi;
+            len += inside(*hi);
         }
-        self.flat = self
-            .lo
-            .iter()
-            .zip(&self.hi)
-            .fold(false, |f, (lo, hi)| f | (lo == hi));
-        let (lo, hi) = (cell.min[AXIS], cell.max[AXIS]);
-        let full = (2 * n).next_multiple_of(8);
-        self.pos.resize(full, f32::NAN);
-        let mut len = 0;
-        for &p in self.lo.iter().chain(&self.hi) {
-            self.pos[len] = p;
-            len += usize::from(p > lo && p < hi);
-        }
+        self.flat = flat;
         let padded = len.next_multiple_of(8);
-        self.pos[len..padded].fill(f32::NAN);
+        pos[len..padded].fill(f32::NAN);
         self.pos.truncate(padded);
         for list in [&mut self.below, &mut self.above, &mut self.planar] {
             list.resize(padded, 0.0);

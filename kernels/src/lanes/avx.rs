@@ -181,6 +181,10 @@ impl LaneF32 for AvxF32 {
         AvxMask(proven!(_mm256_cmp_ps::<_CMP_UNORD_Q>(self.0, self.0)))
     }
     #[inline(always)]
+    fn masked(self, m: AvxMask) -> Self {
+        AvxF32(proven!(_mm256_and_ps(m.0, self.0)))
+    }
+    #[inline(always)]
     fn select(m: AvxMask, a: Self, b: Self) -> Self {
         AvxF32(proven!(_mm256_blendv_ps(b.0, a.0, m.0)))
     }

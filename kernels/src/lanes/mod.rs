@@ -118,6 +118,9 @@ pub trait LaneF32:
     fn is_nan(self) -> Self::Mask;
     /// Lane-wise `if m { a } else { b }`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// Lane-wise `if m { self } else { +0.0 }`: one `and` on x86 where [`LaneF32::select`] is a
+    /// blend (summing `one.masked(m)` counts the set lanes).
+    fn masked(self, m: Self::Mask) -> Self;
     /// Lane `i`. Panics if `i >= WIDTH`.
     fn extract(self, i: usize) -> f32;
     /// Smallest lane, ignoring NaN lanes (`+inf` when every lane is NaN).

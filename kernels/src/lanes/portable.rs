@@ -145,6 +145,10 @@ impl LaneF32 for PortableF32 {
         !PortableMask(self.0.cmp_eq(self.0))
     }
     #[inline(always)]
+    fn masked(self, m: PortableMask) -> Self {
+        PortableF32(m.0 & self.0)
+    }
+    #[inline(always)]
     fn select(m: PortableMask, a: Self, b: Self) -> Self {
         PortableF32(m.0.blend(a.0, b.0))
     }

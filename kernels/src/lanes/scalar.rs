@@ -87,6 +87,14 @@ impl LaneF32 for f32 {
         self.is_nan()
     }
     #[inline(always)]
+    fn masked(self, m: bool) -> f32 {
+        if m {
+            self
+        } else {
+            0.0
+        }
+    }
+    #[inline(always)]
     fn select(m: bool, a: f32, b: f32) -> f32 {
         if m {
             a

@@ -208,6 +208,10 @@ impl LaneF32 for SseF32 {
         SseMask(proven!(_mm_cmpunord_ps(self.0, self.0)))
     }
     #[inline(always)]
+    fn masked(self, m: SseMask) -> Self {
+        SseF32(proven!(_mm_and_ps(m.0, self.0)))
+    }
+    #[inline(always)]
     fn select(m: SseMask, a: Self, b: Self) -> Self {
         SseF32(proven!(_mm_blendv_ps(b.0, a.0, m.0)))
     }
