@@ -255,3 +255,19 @@ fn load_from_a_short_slice_panics_instead_of_reading_past_it() {
     }
     run_on(widest, ShortLoad);
 }
+
+#[test]
+fn truncation_of_three_lanes_is_as_i32_in_range() {
+    use kdbeam_kernels::lanes::truncate_to_i32;
+    let mut rng = Rng::new(5);
+    for _ in 0..10_000 {
+        let v = glam::Vec3A::new(
+            rng.range(-40.0, 40.0),
+            rng.range(0.0, 1.0),
+            rng.range(-2e9, 2e9),
+        );
+        assert_eq!(truncate_to_i32(v), v.to_array().map(|x| x as i32), "{v}");
+    }
+    let edges = glam::Vec3A::new(-0.0, 0.999_999_94, 31.999_998);
+    assert_eq!(truncate_to_i32(edges), [0, 0, 31]);
+}

@@ -27,6 +27,7 @@ mod proof;
 mod scalar;
 #[cfg(target_arch = "x86_64")]
 mod sse;
+mod truncate;
 mod tsc;
 
 #[cfg(target_arch = "x86_64")]
@@ -39,6 +40,7 @@ pub use portable::{Portable, PortableF32, PortableMask};
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]
 pub use sse::{Sse, SseF32, SseMask};
+pub use truncate::truncate_to_i32;
 pub use tsc::tsc;
 
 /// An instruction set and width, as a token that proves the CPU supports it.
