@@ -15,6 +15,7 @@
 //! Counts are `f32`: exact for the at most 2²⁴ boxes a caller may pass, and already in the form
 //! the cost needs.
 
+use crate::aabb::Aabb;
 use crate::lanes::{LaneF32, Lanes};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
@@ -62,31 +63,33 @@ pub struct CheapestPlane {
     pub planar_below: bool,
 }
 
-/// Counts the boxes `[lo[i], hi[i]]` (`i < lo.len()`) on each side of each plane `pos[k]`:
-/// `below[k] = #{lo < p}`, `above[k] = #{hi > p}`, and `planar[k] = #{lo = hi = p}` when `flat`
-/// (some box is flat on this axis), else 0.
+/// Counts `boxes` on each side of each plane `pos[k]` across `axis`, with `lo` and `hi` each
+/// box's faces on that axis: `below[k] = #{lo < p}`, `above[k] = #{hi > p}`, and
+/// `planar[k] = #{lo = hi = p}` when `flat` (some box is flat on this axis), else 0.
 ///
 /// Edge cases: a NaN position counts nothing (every comparison is false); `-0.0` and `+0.0` are
 /// the same plane.
 ///
 /// # Panics
-/// If `hi` is shorter than `lo`, or `below`, `above` or `planar` shorter than `pos`, or the length
-/// of `pos` is not a multiple of `L::WIDTH`.
+/// If `axis` is not 0, 1 or 2, or `below`, `above` or `planar` is shorter than `pos`, or the
+/// length of `pos` is not a multiple of `L::WIDTH`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub fn count_planes<L: Lanes>(
     l: L,
-    lo: &[f32],
-    hi: &[f32],
+    boxes: &[Aabb],
+    axis: usize,
     flat: bool,
     pos: &[f32],
     below: &mut [f32],
     above: &mut [f32],
     planar: &mut [f32],
 ) {
-    assert!(hi.len() >= lo.len() && pos.len().is_multiple_of(L::WIDTH));
+    assert!(axis < 3 && pos.len().is_multiple_of(L::WIDTH));
     assert!(below.len() >= pos.len() && above.len() >= pos.len() && planar.len() >= pos.len());
-    let boxes = lo.iter().zip(hi);
+    // Read in place, as `[min.x, min.y, min.z, max.x, max.y, max.z]`.
+    let faces: &[[f32; 6]] = bytemuck::cast_slice(boxes);
+    let boxes = faces.iter().map(|f| (f[axis], f[axis + 3]));
     let one = l.splat(1.0);
     // Two vectors of planes per pass over the boxes, so that each box is broadcast once for
     // both; then the odd one out.
@@ -94,7 +97,7 @@ pub fn count_planes<L: Lanes>(
     for k in (0..pairs).step_by(2 * L::WIDTH) {
         let (p, q) = (l.load(&pos[k..]), l.load(&pos[k + L::WIDTH..]));
         let mut sums = [l.splat(0.0); 6];
-        for (&lo, &hi) in boxes.clone() {
+        for (lo, hi) in boxes.clone() {
             let (lo, hi) = (l.splat(lo), l.splat(hi));
             sums[0] = sums[0] + one.masked(lo.lt(p));
             sums[1] = sums[1] + one.masked(lo.lt(q));
@@ -117,7 +120,7 @@ pub fn count_planes<L: Lanes>(
     for k in (pairs..pos.len()).step_by(L::WIDTH) {
         let p = l.load(&pos[k..]);
         let mut sums = [l.splat(0.0); 3];
-        for (&lo, &hi) in boxes.clone() {
+        for (lo, hi) in boxes.clone() {
             let (lo, hi) = (l.splat(lo), l.splat(hi));
             sums[0] = sums[0] + one.masked(lo.lt(p));
             sums[1] = sums[1] + one.masked(hi.gt(p));

@@ -9,10 +9,13 @@ use kdbeam_kernels::lanes::run_on;
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
-use kdbeam_kernels::{Isa, LaneTask, Lanes};
+use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes, Vec3};
 
-/// Boxes on one axis, with the planes at their faces (padded with NaN to a multiple of 8).
+/// Boxes, their faces on one axis, and the planes at those faces (padded with NaN to a
+/// multiple of 8).
 struct Case {
+    boxes: Vec<Aabb>,
+    axis: usize,
     lo: Vec<f32>,
     hi: Vec<f32>,
     flat: bool,
@@ -37,7 +40,23 @@ fn case(rng: &mut Rng, n: usize) -> Case {
     let flat = lo.iter().zip(&hi).any(|(a, b)| a == b);
     let mut pos: Vec<f32> = lo.iter().chain(&hi).copied().collect();
     pos.resize(pos.len().div_ceil(8) * 8, f32::NAN);
-    Case { lo, hi, flat, pos }
+    // The faces on one axis; the other axes hold other boxes' faces, which must not count.
+    let axis = rng.below(3);
+    let boxes = (0..n)
+        .map(|i| {
+            let (mut min, mut max) = (Vec3::splat(lo[(i + 1) % n]), Vec3::splat(hi[(i + 2) % n]));
+            (min[axis], max[axis]) = (lo[i], hi[i]);
+            Aabb::new(min, max)
+        })
+        .collect();
+    Case {
+        boxes,
+        axis,
+        lo,
+        hi,
+        flat,
+        pos,
+    }
 }
 
 /// The counts by definition, one plane and one box at a time.
@@ -120,7 +139,7 @@ impl LaneTask for Count<'_> {
         let c = self.0;
         let mut out = [(); 3].map(|_| vec![-1.0; c.pos.len()]);
         let [below, above, planar] = &mut out;
-        count_planes(l, &c.lo, &c.hi, c.flat, &c.pos, below, above, planar);
+        count_planes(l, &c.boxes, c.axis, c.flat, &c.pos, below, above, planar);
         out
     }
 }

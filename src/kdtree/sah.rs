@@ -319,9 +319,6 @@ pub(super) struct CountedPlanes {
 /// One axis of [`CountedPlanes`].
 #[derive(Default)]
 struct AxisCounts {
-    /// The boxes' lower and upper faces.
-    lo: Vec<f32>,
-    hi: Vec<f32>,
     /// Is some box flat on this axis?
     flat: bool,
     /// The planes: the faces strictly inside the cell, then NaN up to a multiple of 8 lanes.
@@ -340,28 +337,32 @@ impl CountedPlanes {
         x.fill::<0>(boxes, cell);
         y.fill::<1>(boxes, cell);
         z.fill::<2>(boxes, cell);
-        run_on(isa, Count(self));
+        run_on(
+            isa,
+            Count {
+                planes: self,
+                boxes,
+            },
+        );
     }
 }
 
 impl AxisCounts {
-    /// Takes axis `AXIS` of `boxes`, and its planes strictly inside `cell`, without branches on
+    /// Takes the planes of axis `AXIS` of `boxes` strictly inside `cell`, without branches on
     /// the data (which planes lie inside is as good as random).
     fn fill<const AXIS: usize>(&mut self, boxes: &[Aabb], cell: &Aabb) {
-        let n = boxes.len();
-        self.lo.resize(n, 0.0);
-        self.hi.resize(n, 0.0);
-        self.pos.resize((2 * n).next_multiple_of(8), f32::NAN);
+        self.pos
+            .resize((2 * boxes.len()).next_multiple_of(8), f32::NAN);
         let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
         let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
         let (pos, mut len, mut flat) = (&mut self.pos[..], 0, false);
-        for ((lo, hi), b) in self.lo.iter_mut().zip(&mut self.hi).zip(boxes) {
-            (*lo, *hi) = (b.min[AXIS], b.max[AXIS]);
-            flat |= *lo == *hi;
-            pos[len] = *lo;
-            len += inside(*lo);
-            pos[len] = *hi;
-            len += inside(*hi);
+        for b in boxes {
+            let (lo, hi) = (b.min[AXIS], b.max[AXIS]);
+            flat |= lo == hi;
+            pos[len] = lo;
+            len += inside(lo);
+            pos[len] = hi;
+            len += inside(hi);
         }
         self.flat = flat;
         let padded = len.next_multiple_of(8);
@@ -374,18 +375,21 @@ impl AxisCounts {
 }
 
 /// [`CountedPlanes::count`]'s kernel calls, in one ISA entry point.
-struct Count<'a>(&'a mut CountedPlanes);
+struct Count<'a> {
+    planes: &'a mut CountedPlanes,
+    boxes: &'a [Aabb],
+}
 
 impl LaneTask for Count<'_> {
     type Output = ();
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) {
-        for c in &mut self.0.axes {
+        for (axis, c) in self.planes.axes.iter_mut().enumerate() {
             let len = c.pos.len();
             count_planes(
                 l,
-                &c.lo,
-                &c.hi,
+                self.boxes,
+                axis,
                 c.flat,
                 &c.pos,
                 &mut c.below[..len],
