@@ -594,7 +594,22 @@ fn split_boxes(
     split: &Split,
     scratch: &mut Scratch,
 ) -> (BoxNode, BoxNode) {
-    let axis = split.axis;
+    // The axis as a constant, so that coordinates along it are picked without a branch.
+    match split.axis {
+        0 => split_boxes_on::<0>(context, node, split, scratch),
+        1 => split_boxes_on::<1>(context, node, split, scratch),
+        _ => split_boxes_on::<2>(context, node, split, scratch),
+    }
+}
+
+/// [`split_boxes`] on axis `AXIS` (`split.axis`).
+fn split_boxes_on<const AXIS: usize>(
+    context: &Context<'_>,
+    node: &BoxNode,
+    split: &Split,
+    scratch: &mut Scratch,
+) -> (BoxNode, BoxNode) {
+    let axis = AXIS;
     let p = unkey(split.pos_key);
     let (mut below_cell, mut above_cell) = (node.cell, node.cell);
     below_cell.max[axis] = p;

@@ -122,7 +122,7 @@ impl CostModel {
                 };
                 best = Some(Split {
                     axis,
-                    pos_key: key(counts.pos[index]),
+                    pos_key: key(counts.pos()[index]),
                     planar_below,
                     cost,
                     below_count: counts.below[index] as u32 + pb,
@@ -318,10 +318,14 @@ pub(super) struct CountedPlanes {
 
 /// One axis of [`CountedPlanes`].
 #[derive(Default)]
+///
+/// The buffers only grow; the planes are their first `len` entries.
 struct AxisCounts {
     /// Is some box flat on this axis?
     flat: bool,
-    /// The planes: the faces strictly inside the cell, then NaN up to a multiple of 8 lanes.
+    /// The number of planes: the faces strictly inside the cell, then NaN up to a multiple of 8
+    /// lanes.
+    len: usize,
     pos: Vec<f32>,
     below: Vec<f32>,
     above: Vec<f32>,
@@ -351,11 +355,20 @@ impl AxisCounts {
     /// Takes the planes of axis `AXIS` of `boxes` strictly inside `cell`, without branches on
     /// the data (which planes lie inside is as good as random).
     fn fill<const AXIS: usize>(&mut self, boxes: &[Aabb], cell: &Aabb) {
-        self.pos
-            .resize((2 * boxes.len()).next_multiple_of(8), f32::NAN);
+        let room = (2 * boxes.len()).next_multiple_of(8);
+        if self.pos.len() < room {
+            for list in [
+                &mut self.pos,
+                &mut self.below,
+                &mut self.above,
+                &mut self.planar,
+            ] {
+                list.resize(room, 0.0);
+            }
+        }
         let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
         let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
-        let (pos, mut len, mut flat) = (&mut self.pos[..], 0, false);
+        let (pos, mut len, mut flat) = (&mut self.pos[..room], 0, false);
         for b in boxes {
             let (lo, hi) = (b.min[AXIS], b.max[AXIS]);
             flat |= lo == hi;
@@ -365,12 +378,13 @@ impl AxisCounts {
             len += inside(hi);
         }
         self.flat = flat;
-        let padded = len.next_multiple_of(8);
-        pos[len..padded].fill(f32::NAN);
-        self.pos.truncate(padded);
-        for list in [&mut self.below, &mut self.above, &mut self.planar] {
-            list.resize(padded, 0.0);
-        }
+        self.len = len.next_multiple_of(8);
+        pos[len..self.len].fill(f32::NAN);
+    }
+
+    /// The planes' positions.
+    fn pos(&self) -> &[f32] {
+        &self.pos[..self.len]
     }
 }
 
@@ -385,13 +399,13 @@ impl LaneTask for Count<'_> {
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) {
         for (axis, c) in self.planes.axes.iter_mut().enumerate() {
-            let len = c.pos.len();
+            let len = c.len;
             count_planes(
                 l,
                 self.boxes,
                 axis,
                 c.flat,
-                &c.pos,
+                &c.pos[..len],
                 &mut c.below[..len],
                 &mut c.above[..len],
                 &mut c.planar[..len],
@@ -414,9 +428,9 @@ impl LaneTask for Cheapest<'_> {
         let mut found = [None; 3];
         for ((found, c), cell) in found.iter_mut().zip(&self.planes.axes).zip(&self.cells) {
             let Some(cell) = cell else { continue };
-            let len = c.pos.len();
+            let len = c.len;
             let planes = AxisPlanes {
-                pos: &c.pos,
+                pos: c.pos(),
                 below: &c.below[..len],
                 above: &c.above[..len],
                 planar: &c.planar[..len],
