@@ -38,6 +38,7 @@
 use std::ops::Range;
 use std::time::Instant;
 
+use kdbeam_kernels::lanes::prefetch;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
 
 use super::clip::split_clipped_bounds;
@@ -122,6 +123,8 @@ struct Scratch {
     refs: Refs,
     /// A split's above references, until the below ones have been pushed.
     above: Refs,
+    /// A split's straddling references (indices into `refs`), to be clipped.
+    straddling: Vec<usize>,
     events: [Vec<Event>; 3],
     candidates: Candidates,
     counted: CountedPlanes,
@@ -587,7 +590,8 @@ fn side_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> Side {
 /// Splits `node` at `split` (which has triangles on both sides): one-sided triangles go to
 /// their side with their boxes, straddling ones are clipped to each child cell (and left out
 /// of a child they do not meet). The children's references are pushed on `scratch.refs`,
-/// below then above.
+/// below then above; within each, the one-sided triangles come first, in the node's order, then
+/// the clipped ones.
 fn split_boxes(
     context: &Context<'_>,
     node: &BoxNode,
@@ -614,8 +618,14 @@ fn split_boxes_on<const AXIS: usize>(
     let (mut below_cell, mut above_cell) = (node.cell, node.cell);
     below_cell.max[axis] = p;
     above_cell.min[axis] = p;
-    let Scratch { refs, above, .. } = scratch;
+    let Scratch {
+        refs,
+        above,
+        straddling,
+        ..
+    } = scratch;
     above.truncate(0);
+    straddling.clear();
     let first = refs.len();
     let (mut below_union, mut above_union) = (Aabb::EMPTY, Aabb::EMPTY);
     for i in node.refs.clone() {
@@ -629,18 +639,25 @@ fn split_boxes_on<const AXIS: usize>(
                 above.push(id, b);
                 above_union = above_union.union(b);
             }
+            // Clipped below, once the loads of their triangles, random in the mesh, are under
+            // way.
             Side::Both => {
-                let tri = &context.triangles[id as usize];
-                let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
-                if let Some(part) = below_part {
-                    refs.push(id, part);
-                    below_union = below_union.union(part);
-                }
-                if let Some(part) = above_part {
-                    above.push(id, part);
-                    above_union = above_union.union(part);
-                }
+                prefetch(&context.triangles[id as usize]);
+                straddling.push(i);
             }
+        }
+    }
+    for &i in straddling.iter() {
+        let id = refs.ids[i];
+        let tri = &context.triangles[id as usize];
+        let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
+        if let Some(part) = below_part {
+            refs.push(id, part);
+            below_union = below_union.union(part);
+        }
+        if let Some(part) = above_part {
+            above.push(id, part);
+            above_union = above_union.union(part);
         }
     }
     let middle = refs.len();

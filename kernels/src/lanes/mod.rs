@@ -22,6 +22,7 @@ mod dispatch;
 mod isa;
 mod mxcsr;
 mod portable;
+mod prefetch;
 #[cfg(target_arch = "x86_64")]
 mod proof;
 mod scalar;
@@ -37,6 +38,7 @@ pub use dispatch::run_on;
 pub use isa::{Isa, ParseIsaError};
 pub use mxcsr::with_flush_to_zero;
 pub use portable::{Portable, PortableF32, PortableMask};
+pub use prefetch::prefetch;
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]
 pub use sse::{Sse, SseF32, SseMask};
