@@ -19,7 +19,7 @@ use crate::aabb::Aabb;
 use crate::lanes::{LaneF32, Lanes};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
-/// slice belongs to plane `k`. All four slices have the same length, a multiple of the widest
+/// slice belongs to plane `k`. All the slices have the same length, a multiple of the widest
 /// `WIDTH` (8); unused entries hold a NaN position, which no cell contains.
 #[derive(Clone, Copy, Debug)]
 pub struct AxisPlanes<'a> {
@@ -29,8 +29,9 @@ pub struct AxisPlanes<'a> {
     pub below: &'a [f32],
     /// Boxes reaching above each plane: `#{hi > p}`.
     pub above: &'a [f32],
-    /// Flat boxes lying in each plane: `#{lo = hi = p}`.
-    pub planar: &'a [f32],
+    /// Flat boxes lying in each plane: `#{lo = hi = p}`; `None` when no box is flat on this axis
+    /// (every count 0), which spares the costing of the planar boxes on either side.
+    pub planar: Option<&'a [f32]>,
 }
 
 /// How a cell's surface area splits at a plane on one axis, and the SAH weights; the caller
@@ -159,7 +160,8 @@ pub fn cheapest_plane<L: Lanes>(
 ) -> Option<CheapestPlane> {
     let len = planes.pos.len();
     assert!(len.is_multiple_of(L::WIDTH));
-    assert!(planes.below.len() == len && planes.above.len() == len && planes.planar.len() == len);
+    assert!(planes.below.len() == len && planes.above.len() == len);
+    assert!(planes.planar.is_none_or(|planar| planar.len() == len));
     let (zero, one) = (l.splat(0.0), l.splat(1.0));
     let (base, slope) = (l.splat(cell.base), l.splat(cell.slope));
     let (lo, hi) = (l.splat(cell.lo), l.splat(cell.hi));
@@ -178,12 +180,19 @@ pub fn cheapest_plane<L: Lanes>(
     for k in (0..len).step_by(L::WIDTH) {
         let p = l.load(&planes.pos[k..]);
         let (nb, na) = (l.load(&planes.below[k..]), l.load(&planes.above[k..]));
-        let np = l.load(&planes.planar[k..]);
         let (pb, pa) = (base + slope * (p - lo), base + slope * (hi - p));
-        let with_below = weighted(pb, pa, nb + np, na);
-        let with_above = weighted(pb, pa, nb, na + np);
-        let planar_below = with_below.le(with_above);
-        let weight = L::F32::select(planar_below, with_below, with_above);
+        let (weight, planar_below) = match planes.planar {
+            Some(planar) => {
+                let np = l.load(&planar[k..]);
+                let with_below = weighted(pb, pa, nb + np, na);
+                let with_above = weighted(pb, pa, nb, na + np);
+                let planar_below = with_below.le(with_above);
+                let weight = L::F32::select(planar_below, with_below, with_above);
+                (weight, planar_below)
+            }
+            // The same weight as with `np = 0` (`nb + 0 = nb` exactly), and "below".
+            None => (weighted(pb, pa, nb, na), zero.eq(zero)),
+        };
         let better = (p.gt(lo) & p.lt(hi))
             & (weight.lt(best_weight) | (weight.eq(best_weight) & p.lt(best_pos)));
         best_weight = L::F32::select(better, weight, best_weight);

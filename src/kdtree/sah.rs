@@ -433,7 +433,7 @@ impl LaneTask for Cheapest<'_> {
                 pos: c.pos(),
                 below: &c.below[..len],
                 above: &c.above[..len],
-                planar: &c.planar[..len],
+                planar: c.flat.then(|| &c.planar[..len]),
             };
             *found = cheapest_plane(l, &planes, cell);
         }
