@@ -19,7 +19,7 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use glam::{DVec3, Vec3};
-pub use lanes::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+pub use lanes::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 pub use packet::{HitPacket, PacketShape, RayPacket, MAX_PACKET_RAYS};
 pub use ray::{Hit, Ray};
 pub use triangle::{KsTriangle, Triangle};

@@ -12,11 +12,12 @@
 //! - `above(p) = #{hi > p}`: boxes that end after `p`;
 //! - `planar(p) = #{lo = hi = p}`: flat boxes lying in `p`, counted on neither side.
 //!
-//! Counts are `f32`: exact for the at most 2²⁴ boxes a caller may pass, and already in the form
-//! the cost needs.
+//! The counts are kept in integer lanes ([`crate::LaneCount`]: one subtraction of the mask per
+//! box and plane vector) and returned as `f32`: exact for the at most 2²⁴ boxes a caller may
+//! pass, and already in the form the cost needs.
 
 use crate::aabb::Aabb;
-use crate::lanes::{LaneF32, Lanes};
+use crate::lanes::{LaneCount, LaneF32, Lanes};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
 /// slice belongs to plane `k`. All the slices have the same length, a multiple of the widest
@@ -91,49 +92,48 @@ pub fn count_planes<L: Lanes>(
     // Read in place, as `[min.x, min.y, min.z, max.x, max.y, max.z]`.
     let faces: &[[f32; 6]] = bytemuck::cast_slice(boxes);
     let boxes = faces.iter().map(|f| (f[axis], f[axis + 3]));
-    let one = l.splat(1.0);
     // Two vectors of planes per pass over the boxes, so that each box is broadcast once for
     // both; then the odd one out.
     let pairs = pos.len() / (2 * L::WIDTH) * (2 * L::WIDTH);
     for k in (0..pairs).step_by(2 * L::WIDTH) {
         let (p, q) = (l.load(&pos[k..]), l.load(&pos[k + L::WIDTH..]));
-        let mut sums = [l.splat(0.0); 6];
+        let mut counts = [l.zero_counts(); 6];
         for (lo, hi) in boxes.clone() {
             let (lo, hi) = (l.splat(lo), l.splat(hi));
-            sums[0] = sums[0] + one.masked(lo.lt(p));
-            sums[1] = sums[1] + one.masked(lo.lt(q));
-            sums[2] = sums[2] + one.masked(hi.gt(p));
-            sums[3] = sums[3] + one.masked(hi.gt(q));
+            counts[0] = counts[0].add_set(lo.lt(p));
+            counts[1] = counts[1].add_set(lo.lt(q));
+            counts[2] = counts[2].add_set(hi.gt(p));
+            counts[3] = counts[3].add_set(hi.gt(q));
             if flat {
-                sums[4] = sums[4] + one.masked(lo.eq(p) & hi.eq(p));
-                sums[5] = sums[5] + one.masked(lo.eq(q) & hi.eq(q));
+                counts[4] = counts[4].add_set(lo.eq(p) & hi.eq(p));
+                counts[5] = counts[5].add_set(lo.eq(q) & hi.eq(q));
             }
         }
         for (list, [at_p, at_q]) in [&mut *below, &mut *above, &mut *planar].into_iter().zip([
-            [sums[0], sums[1]],
-            [sums[2], sums[3]],
-            [sums[4], sums[5]],
+            [counts[0], counts[1]],
+            [counts[2], counts[3]],
+            [counts[4], counts[5]],
         ]) {
-            l.store(at_p, &mut list[k..]);
-            l.store(at_q, &mut list[k + L::WIDTH..]);
+            l.store(at_p.to_f32(), &mut list[k..]);
+            l.store(at_q.to_f32(), &mut list[k + L::WIDTH..]);
         }
     }
     for k in (pairs..pos.len()).step_by(L::WIDTH) {
         let p = l.load(&pos[k..]);
-        let mut sums = [l.splat(0.0); 3];
+        let mut counts = [l.zero_counts(); 3];
         for (lo, hi) in boxes.clone() {
             let (lo, hi) = (l.splat(lo), l.splat(hi));
-            sums[0] = sums[0] + one.masked(lo.lt(p));
-            sums[1] = sums[1] + one.masked(hi.gt(p));
+            counts[0] = counts[0].add_set(lo.lt(p));
+            counts[1] = counts[1].add_set(hi.gt(p));
             if flat {
-                sums[2] = sums[2] + one.masked(lo.eq(p) & hi.eq(p));
+                counts[2] = counts[2].add_set(lo.eq(p) & hi.eq(p));
             }
         }
-        for (list, sum) in [&mut *below, &mut *above, &mut *planar]
+        for (list, count) in [&mut *below, &mut *above, &mut *planar]
             .into_iter()
-            .zip(sums)
+            .zip(counts)
         {
-            l.store(sum, &mut list[k..]);
+            l.store(count.to_f32(), &mut list[k..]);
         }
     }
 }

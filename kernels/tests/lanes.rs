@@ -6,7 +6,7 @@ mod common;
 
 use common::{lanes_of, same, Rng};
 use kdbeam_kernels::lanes::run_on;
-use kdbeam_kernels::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+use kdbeam_kernels::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// Rounds of random inputs per ISA.
 const ROUNDS: usize = 20_000;
@@ -270,4 +270,31 @@ fn truncation_of_three_lanes_is_as_i32_in_range() {
     }
     let edges = glam::Vec3A::new(-0.0, 0.999_999_94, 31.999_998);
     assert_eq!(truncate_to_i32(edges), [0, 0, 31]);
+}
+
+/// Counts the set lanes of `masks` (bits of mask `k`, lane `i` at bit `i`) with `LaneCount`.
+struct CountSetLanes<'a>(&'a [u32]);
+
+impl LaneTask for CountSetLanes<'_> {
+    type Output = Vec<f32>;
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> Vec<f32> {
+        let counts = self.0.iter().fold(l.zero_counts(), |c, &bits| {
+            c.add_set(l.mask_from_bits(bits))
+        });
+        lanes_of(l, counts.to_f32())
+    }
+}
+
+#[test]
+fn counters_count_the_set_lanes_of_every_mask() {
+    let mut rng = Rng::new(9);
+    let masks: Vec<u32> = (0..1000).map(|_| rng.next_u64() as u32).collect();
+    for isa in Isa::available() {
+        let got = run_on(isa, CountSetLanes(&masks)).unwrap();
+        let want: Vec<f32> = (0..isa.width())
+            .map(|i| masks.iter().filter(|&&m| m >> i & 1 != 0).count() as f32)
+            .collect();
+        assert_eq!(got, want, "{isa}");
+    }
 }

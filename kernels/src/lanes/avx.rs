@@ -5,7 +5,7 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 use super::proof::proven;
 use super::sse::{reduce_max128, reduce_min128};
-use super::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// The AVX2 + FMA token: eight `f32` lanes in an `__m256`.
 ///
@@ -43,6 +43,10 @@ pub struct AvxF32(__m256);
 #[derive(Clone, Copy, Debug)]
 pub struct AvxMask(__m256);
 
+/// Eight `u32` counters in an `__m256i`. Made only through an [`Avx`] token.
+#[derive(Clone, Copy, Debug)]
+pub struct AvxCount(__m256i);
+
 /// The `#[target_feature]` entry point: `task` and everything it inlines compile for AVX2 + FMA
 /// (256-bit `ymm` instructions, VEX encoding, `vfmadd`).
 ///
@@ -62,6 +66,7 @@ impl Lanes for Avx {
     const ISA: Isa = Isa::Avx2;
     type F32 = AvxF32;
     type Mask = AvxMask;
+    type Count = AvxCount;
 
     #[inline(always)]
     fn splat(self, x: f32) -> AvxF32 {
@@ -86,6 +91,10 @@ impl Lanes for Avx {
             let set = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bit);
             _mm256_castsi256_ps(_mm256_cmpeq_epi32(set, lane_bit))
         }))
+    }
+    #[inline(always)]
+    fn zero_counts(self) -> AvxCount {
+        AvxCount(proven!(_mm256_setzero_si256()))
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {
@@ -220,6 +229,20 @@ impl LaneF32 for AvxF32 {
     #[inline(always)]
     fn sign_bits(self) -> u32 {
         proven!(_mm256_movemask_ps(self.0)) as u32
+    }
+}
+
+impl LaneCount for AvxCount {
+    type Mask = AvxMask;
+    type F32 = AvxF32;
+
+    #[inline(always)]
+    fn add_set(self, m: AvxMask) -> Self {
+        AvxCount(proven!(_mm256_sub_epi32(self.0, _mm256_castps_si256(m.0))))
+    }
+    #[inline(always)]
+    fn to_f32(self) -> AvxF32 {
+        AvxF32(proven!(_mm256_cvtepi32_ps(self.0)))
     }
 }
 

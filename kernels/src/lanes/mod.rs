@@ -32,16 +32,16 @@ mod truncate;
 mod tsc;
 
 #[cfg(target_arch = "x86_64")]
-pub use avx::{Avx, AvxF32, AvxMask};
+pub use avx::{Avx, AvxCount, AvxF32, AvxMask};
 #[cfg(feature = "std")]
 pub use dispatch::run_on;
 pub use isa::{Isa, ParseIsaError};
 pub use mxcsr::with_flush_to_zero;
-pub use portable::{Portable, PortableF32, PortableMask};
+pub use portable::{Portable, PortableCount, PortableF32, PortableMask};
 pub use prefetch::prefetch;
 pub use scalar::Scalar;
 #[cfg(target_arch = "x86_64")]
-pub use sse::{Sse, SseF32, SseMask};
+pub use sse::{Sse, SseCount, SseF32, SseMask};
 pub use truncate::truncate_to_i32;
 pub use tsc::tsc;
 
@@ -58,6 +58,8 @@ pub trait Lanes: Copy + Debug + Send + Sync + 'static {
     type F32: LaneF32<Mask = Self::Mask>;
     /// A vector of `WIDTH` booleans, as produced by comparisons.
     type Mask: LaneMask;
+    /// A vector of `WIDTH` counters of set mask lanes.
+    type Count: LaneCount<Mask = Self::Mask, F32 = Self::F32>;
 
     /// All lanes equal to `x`.
     fn splat(self, x: f32) -> Self::F32;
@@ -67,6 +69,8 @@ pub trait Lanes: Copy + Debug + Send + Sync + 'static {
     fn store(self, v: Self::F32, dst: &mut [f32]);
     /// Mask whose lane `i` is set when bit `i` of `bits` is; bits at or above `WIDTH` are ignored.
     fn mask_from_bits(self, bits: u32) -> Self::Mask;
+    /// Counters at zero in every lane.
+    fn zero_counts(self) -> Self::Count;
     /// Runs `task` compiled for this ISA (inside a `#[target_feature]` function where needed).
     fn run<T: LaneTask>(self, task: T) -> T::Output;
 }
@@ -134,6 +138,21 @@ pub trait LaneF32:
     /// Bit `i` set when lane `i` has its sign bit set: negative numbers, `-0.0`, `-inf` and
     /// NaNs with the sign bit (x86 `movemask` on the floats themselves).
     fn sign_bits(self) -> u32;
+}
+
+/// A vector of `WIDTH` integer counters, one per lane, for counting the set lanes of many masks
+/// (as the kd-tree build counts the boxes on each side of 8 planes at once).
+pub trait LaneCount: Copy + Debug {
+    /// The masks it counts.
+    type Mask: LaneMask;
+    /// The vector its counts convert to.
+    type F32: LaneF32<Mask = Self::Mask>;
+
+    /// Adds 1 to each lane where `m` is set (wrapping at 2³²): one integer subtraction on x86,
+    /// where a set lane is all ones, −1.
+    fn add_set(self, m: Self::Mask) -> Self;
+    /// The counts as `f32` (exact up to 2²⁴; beyond, rounded to nearest as `i32 as f32`).
+    fn to_f32(self) -> Self::F32;
 }
 
 /// A vector of booleans, one per lane. `!m` only sets the `WIDTH` real lanes.

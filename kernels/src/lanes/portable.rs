@@ -9,9 +9,9 @@
 
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
-use wide::{f32x4, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
+use wide::{f32x4, i32x4, CmpEq, CmpGe, CmpGt, CmpLe, CmpLt};
 
-use super::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// The portable token: four `f32` lanes in a `wide::f32x4`. Always available.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -25,6 +25,10 @@ pub struct PortableF32(f32x4);
 #[derive(Clone, Copy, Debug)]
 pub struct PortableMask(f32x4);
 
+/// Four `u32` counters in a `wide::i32x4`.
+#[derive(Clone, Copy, Debug)]
+pub struct PortableCount(i32x4);
+
 /// A lane with every bit set (a NaN bit pattern, only ever used as a mask).
 const ONES: f32 = f32::from_bits(u32::MAX);
 
@@ -33,6 +37,7 @@ impl Lanes for Portable {
     const ISA: Isa = Isa::Portable;
     type F32 = PortableF32;
     type Mask = PortableMask;
+    type Count = PortableCount;
 
     #[inline(always)]
     fn splat(self, x: f32) -> PortableF32 {
@@ -53,8 +58,27 @@ impl Lanes for Portable {
         PortableMask(f32x4::new([lane(0), lane(1), lane(2), lane(3)]))
     }
     #[inline(always)]
+    fn zero_counts(self) -> PortableCount {
+        PortableCount(i32x4::splat(0))
+    }
+    #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {
         task.run(self)
+    }
+}
+
+impl LaneCount for PortableCount {
+    type Mask = PortableMask;
+    type F32 = PortableF32;
+
+    #[inline(always)]
+    fn add_set(self, m: PortableMask) -> Self {
+        // A set lane is all ones: −1 as an integer.
+        PortableCount(self.0 - bytemuck::cast::<f32x4, i32x4>(m.0))
+    }
+    #[inline(always)]
+    fn to_f32(self) -> PortableF32 {
+        PortableF32(self.0.round_float())
     }
 }
 

@@ -1,6 +1,6 @@
 //! One lane of plain `f32`: the reference implementation of [`Lanes`].
 
-use super::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// The scalar ISA: `F32 = f32`, `Mask = bool`. Always available.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -11,6 +11,7 @@ impl Lanes for Scalar {
     const ISA: Isa = Isa::Scalar;
     type F32 = f32;
     type Mask = bool;
+    type Count = u32;
 
     #[inline(always)]
     fn splat(self, x: f32) -> f32 {
@@ -29,8 +30,26 @@ impl Lanes for Scalar {
         bits & 1 != 0
     }
     #[inline(always)]
+    fn zero_counts(self) -> u32 {
+        0
+    }
+    #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {
         task.run(self)
+    }
+}
+
+impl LaneCount for u32 {
+    type Mask = bool;
+    type F32 = f32;
+
+    #[inline(always)]
+    fn add_set(self, m: bool) -> u32 {
+        self.wrapping_add(u32::from(m))
+    }
+    #[inline(always)]
+    fn to_f32(self) -> f32 {
+        self as i32 as f32
     }
 }
 

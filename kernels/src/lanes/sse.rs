@@ -4,7 +4,7 @@ use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 use super::proof::proven;
-use super::{Isa, LaneF32, LaneMask, LaneTask, Lanes};
+use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// The SSE4.1 token: four `f32` lanes in an `__m128`.
 ///
@@ -42,6 +42,10 @@ pub struct SseF32(__m128);
 #[derive(Clone, Copy, Debug)]
 pub struct SseMask(__m128);
 
+/// Four `u32` counters in an `__m128i`. Made only through an [`Sse`] token.
+#[derive(Clone, Copy, Debug)]
+pub struct SseCount(__m128i);
+
 /// The `#[target_feature]` entry point: `task` and everything it inlines compile for SSE4.1.
 ///
 /// # Safety
@@ -57,6 +61,7 @@ impl Lanes for Sse {
     const ISA: Isa = Isa::Sse;
     type F32 = SseF32;
     type Mask = SseMask;
+    type Count = SseCount;
 
     #[inline(always)]
     fn splat(self, x: f32) -> SseF32 {
@@ -81,6 +86,10 @@ impl Lanes for Sse {
             let set = _mm_and_si128(_mm_set1_epi32(bits as i32), lane_bit);
             _mm_castsi128_ps(_mm_cmpeq_epi32(set, lane_bit))
         }))
+    }
+    #[inline(always)]
+    fn zero_counts(self) -> SseCount {
+        SseCount(proven!(_mm_setzero_si128()))
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {
@@ -234,6 +243,20 @@ impl LaneF32 for SseF32 {
     #[inline(always)]
     fn sign_bits(self) -> u32 {
         proven!(_mm_movemask_ps(self.0)) as u32
+    }
+}
+
+impl LaneCount for SseCount {
+    type Mask = SseMask;
+    type F32 = SseF32;
+
+    #[inline(always)]
+    fn add_set(self, m: SseMask) -> Self {
+        SseCount(proven!(_mm_sub_epi32(self.0, _mm_castps_si128(m.0))))
+    }
+    #[inline(always)]
+    fn to_f32(self) -> SseF32 {
+        SseF32(proven!(_mm_cvtepi32_ps(self.0)))
     }
 }
 
