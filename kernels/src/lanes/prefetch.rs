@@ -6,6 +6,12 @@
 /// For loads whose addresses are known well before their data is needed, as when the kd-tree
 /// build notes the triangles a split will clip and clips them afterwards. A no-op on targets
 /// other than x86-64.
+///
+/// ```
+/// let far = vec![7u32; 1 << 20];
+/// kdbeam_kernels::lanes::prefetch(&far[1 << 19]);
+/// assert_eq!(far[1 << 19], 7); // a hint changes nothing
+/// ```
 #[inline(always)]
 pub fn prefetch<T>(value: &T) {
     #[cfg(target_arch = "x86_64")]
