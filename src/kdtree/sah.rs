@@ -309,17 +309,17 @@ impl Candidates {
 
 /// A small node's candidate planes, counted in SIMD lanes instead of swept
 /// ([`kdbeam_kernels::split_planes`]): per axis, a plane at each face of each box, with the
-/// boxes below, above and in it. The same planes and counts as [`Candidates`] (each position
-/// may appear twice), kept likewise across the node's empty-space cuts.
+/// boxes below, above and in it. The same planes and counts as [`Candidates`] (where boxes
+/// share a face, its position appears once per box), kept likewise across the node's
+/// empty-space cuts.
 #[derive(Default)]
 pub(super) struct CountedPlanes {
     axes: [AxisCounts; 3],
 }
 
-/// One axis of [`CountedPlanes`].
+/// One axis of [`CountedPlanes`]. The buffers only grow; the planes are their first `len`
+/// entries.
 #[derive(Default)]
-///
-/// The buffers only grow; the planes are their first `len` entries.
 struct AxisCounts {
     /// Is some box flat on this axis?
     flat: bool,
