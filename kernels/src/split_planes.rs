@@ -95,45 +95,52 @@ pub fn count_planes<L: Lanes>(
     // Two vectors of planes per pass over the boxes, so that each box is broadcast once for
     // both; then the odd one out.
     let pairs = pos.len() / (2 * L::WIDTH) * (2 * L::WIDTH);
+    let mut lists = [below, above, planar];
     for k in (0..pairs).step_by(2 * L::WIDTH) {
-        let (p, q) = (l.load(&pos[k..]), l.load(&pos[k + L::WIDTH..]));
-        let mut counts = [l.zero_counts(); 6];
-        for (lo, hi) in boxes.clone() {
-            let (lo, hi) = (l.splat(lo), l.splat(hi));
-            counts[0] = counts[0].add_set(lo.lt(p));
-            counts[1] = counts[1].add_set(lo.lt(q));
-            counts[2] = counts[2].add_set(hi.gt(p));
-            counts[3] = counts[3].add_set(hi.gt(q));
-            if flat {
-                counts[4] = counts[4].add_set(lo.eq(p) & hi.eq(p));
-                counts[5] = counts[5].add_set(lo.eq(q) & hi.eq(q));
-            }
-        }
-        for (list, [at_p, at_q]) in [&mut *below, &mut *above, &mut *planar].into_iter().zip([
-            [counts[0], counts[1]],
-            [counts[2], counts[3]],
-            [counts[4], counts[5]],
-        ]) {
-            l.store(at_p.to_f32(), &mut list[k..]);
-            l.store(at_q.to_f32(), &mut list[k + L::WIDTH..]);
-        }
+        count_block::<L, 2>(
+            l,
+            boxes.clone(),
+            flat,
+            &pos[k..],
+            lists.each_mut().map(|list| &mut list[k..]),
+        );
     }
     for k in (pairs..pos.len()).step_by(L::WIDTH) {
-        let p = l.load(&pos[k..]);
-        let mut counts = [l.zero_counts(); 3];
-        for (lo, hi) in boxes.clone() {
-            let (lo, hi) = (l.splat(lo), l.splat(hi));
-            counts[0] = counts[0].add_set(lo.lt(p));
-            counts[1] = counts[1].add_set(hi.gt(p));
+        count_block::<L, 1>(
+            l,
+            boxes.clone(),
+            flat,
+            &pos[k..],
+            lists.each_mut().map(|list| &mut list[k..]),
+        );
+    }
+}
+
+/// [`count_planes`] for the `V` plane vectors at the start of `pos`, written to the start of
+/// `[below, above, planar]`.
+#[inline(always)]
+fn count_block<L: Lanes, const V: usize>(
+    l: L,
+    boxes: impl Iterator<Item = (f32, f32)>,
+    flat: bool,
+    pos: &[f32],
+    lists: [&mut [f32]; 3],
+) {
+    let p: [L::F32; V] = core::array::from_fn(|v| l.load(&pos[v * L::WIDTH..]));
+    let mut counts = [[l.zero_counts(); V]; 3];
+    for (lo, hi) in boxes {
+        let (lo, hi) = (l.splat(lo), l.splat(hi));
+        for v in 0..V {
+            counts[0][v] = counts[0][v].add_set(lo.lt(p[v]));
+            counts[1][v] = counts[1][v].add_set(hi.gt(p[v]));
             if flat {
-                counts[2] = counts[2].add_set(lo.eq(p) & hi.eq(p));
+                counts[2][v] = counts[2][v].add_set(lo.eq(p[v]) & hi.eq(p[v]));
             }
         }
-        for (list, count) in [&mut *below, &mut *above, &mut *planar]
-            .into_iter()
-            .zip(counts)
-        {
-            l.store(count.to_f32(), &mut list[k..]);
+    }
+    for (list, counts) in lists.into_iter().zip(counts) {
+        for (v, count) in counts.into_iter().enumerate() {
+            l.store(count.to_f32(), &mut list[v * L::WIDTH..]);
         }
     }
 }

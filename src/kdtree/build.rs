@@ -7,9 +7,9 @@
 //!    the 31 boundaries of 32 bins per axis across the boxes' union, and the union's faces;
 //!    Hunt, Mark & Stoll 2006, Shevtsov et al. 2007), whose counts are
 //!    estimates at the boundaries; in a smaller one among every event plane, with exact counts,
-//!    as Wald & Havran do. Up to [`COUNTED_SEARCH_MAX`] triangles each plane is counted against
-//!    each box in SIMD lanes ([`CountedPlanes`], on the builder's ISA); above, the boxes' events
-//!    are sorted per axis and swept once ([`Candidates`]). Both give the same plane, bit for bit;
+//!    as Wald & Havran do ([`ExactPlanes`]). Up to [`COUNTED_SEARCH_MAX`] triangles each plane
+//!    is counted against each box in SIMD lanes, on the builder's ISA; above, the boxes' events
+//!    are sorted per axis and swept once. Both give the same planes and counts, costed in lanes;
 //! 2. while that plane has an empty side it is emitted at once with an empty leaf, and the
 //!    search repeats in the smaller cell with the same counts ([`cut_off_empty_space`]);
 //! 3. otherwise each triangle is classified by its box (§4.3): below only, above only, or
@@ -23,9 +23,10 @@
 //! three A/B rounds). Three alternatives for the small nodes had measured more
 //! instructions than the sort: keeping their event lists sorted through the splits, as Wald &
 //! Havran do (12% more); counting each candidate's sides with 4-wide compares in the baseline
-//! ISA, the costs left scalar, in nodes of at most 16 triangles (4%); and sweeping the sorted events at each search of a node instead
-//! of storing its candidates once (5%). The default threshold and the bin count were chosen by
-//! measured build time and SAH tree cost on the shared scenes.
+//! ISA, the costs left scalar, in nodes of at most 16 triangles (4%); and sweeping the sorted
+//! events at each search of a node instead of storing its candidates once (5%). The default
+//! threshold and the bin count were chosen by measured build time and SAH tree cost on the
+//! shared scenes.
 //!
 //! A node's references (ids and clipped boxes) are a run of one per-thread stack ([`Refs`]):
 //! a split pushes its children's above it, and they are popped once the subtree is built, so
@@ -44,7 +45,7 @@ use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
 use super::clip::split_clipped_bounds;
 use super::events::{push_box_events, unkey, Event};
 use super::layout::Layout;
-use super::sah::{Bins, Candidates, CostModel, CountedPlanes, Split};
+use super::sah::{Bins, CostModel, ExactPlanes, Split};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::trace::{check_isa, isa_from_env};
 use crate::{Error, Mesh, Result};
@@ -54,10 +55,10 @@ use crate::{Error, Mesh, Result};
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
 
 /// Exact searches of nodes of at most this many triangles count their planes in SIMD lanes
-/// ([`CountedPlanes`]), `O(n²)` but branch-free; larger ones (when
-/// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. Measured on
-/// the dragon with exact searches up to 128 triangles: counting them all built 2% faster than
-/// sweeping those above 64.
+/// ([`ExactPlanes::count`]), `O(n²)` but branch-free; larger ones (when
+/// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. On the
+/// dragon with exact searches up to 128 triangles, counting them all built in 145.6 ms against
+/// 149.1 ms for sweeping those above 64 (one run each: within the noise, so not slower).
 const COUNTED_SEARCH_MAX: usize = 128;
 
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
@@ -96,6 +97,12 @@ impl Refs {
         self.ids.truncate(len);
         self.boxes.truncate(len);
     }
+
+    /// Pushes the references `range` of `from`.
+    fn extend_from(&mut self, from: &Refs, range: Range<usize>) {
+        self.ids.extend_from_slice(&from.ids[range.clone()]);
+        self.boxes.extend_from_slice(&from.boxes[range]);
+    }
 }
 
 /// What stays the same for the whole build.
@@ -126,15 +133,14 @@ struct Scratch {
     /// A split's straddling references (indices into `refs`), to be clipped.
     straddling: Vec<usize>,
     events: [Vec<Event>; 3],
-    candidates: Candidates,
-    counted: CountedPlanes,
+    planes: ExactPlanes,
 }
 
-/// Fills `candidates` with those of a small node with `boxes` in `cell`: the boxes' events,
-/// sorted per axis in `events`, swept.
-fn gather_candidates(
+/// Fills `planes` with those of a small node with `boxes` in `cell` by Wald & Havran's sweep:
+/// the boxes' events, sorted per axis in `events`, swept.
+fn sweep_planes(
     events: &mut [Vec<Event>; 3],
-    candidates: &mut Candidates,
+    planes: &mut ExactPlanes,
     boxes: &[Aabb],
     cell: &Aabb,
 ) {
@@ -147,7 +153,7 @@ fn gather_candidates(
     for list in events.iter_mut() {
         list.sort_unstable();
     }
-    candidates.gather(events, boxes.len(), cell);
+    planes.sweep(events, boxes.len(), cell);
 }
 
 impl KdTree {
@@ -375,16 +381,15 @@ fn build_subtree(
     let searched = may_split(context, n, depth);
     let boxes = &scratch.refs.boxes[node.refs.clone()];
     let bins = (searched && n > context.exact_max).then(|| Bins::new(boxes, node.union));
-    let counted = searched && n <= context.count_max.min(context.exact_max);
-    if counted {
-        scratch.counted.count(context.isa, boxes, &node.cell);
-    } else if searched && n <= context.exact_max {
-        let Scratch {
-            events, candidates, ..
-        } = scratch;
-        gather_candidates(events, candidates, boxes, &node.cell);
+    if searched && n <= context.exact_max {
+        let Scratch { events, planes, .. } = scratch;
+        if n <= context.count_max {
+            planes.count(context.isa, boxes, &node.cell);
+        } else {
+            sweep_planes(events, planes, boxes, &node.cell);
+        }
     }
-    let (candidates, counted_planes) = (&scratch.candidates, &scratch.counted);
+    let planes = &scratch.planes;
     let split = cut_off_empty_space(
         context,
         n,
@@ -394,10 +399,7 @@ fn build_subtree(
         &mut open,
         |cell| match &bins {
             Some(bins) => context.costs.best_binned_split(bins, cell),
-            None if counted => context
-                .costs
-                .best_counted_split(context.isa, counted_planes, cell),
-            None => context.costs.best_split(candidates, cell),
+            None => context.costs.best_split(context.isa, planes, cell),
         },
     )?;
     match split {
@@ -503,15 +505,9 @@ fn build_children(
     if context.parallel && n > PARALLEL_MIN_TRIANGLES {
         // The above child moves to a stack of its own, for the other thread.
         let mut above_scratch = Scratch::default();
-        let refs = &scratch.refs;
         above_scratch
             .refs
-            .ids
-            .extend_from_slice(&refs.ids[above.refs.clone()]);
-        above_scratch
-            .refs
-            .boxes
-            .extend_from_slice(&refs.boxes[above.refs.clone()]);
+            .extend_from(&scratch.refs, above.refs.clone());
         let above = BoxNode {
             refs: 0..above_scratch.refs.len(),
             ..above
@@ -661,8 +657,7 @@ fn split_boxes_on<const AXIS: usize>(
         }
     }
     let middle = refs.len();
-    refs.ids.extend_from_slice(&above.ids);
-    refs.boxes.extend_from_slice(&above.boxes);
+    refs.extend_from(above, 0..above.len());
     (
         BoxNode {
             refs: first..middle,

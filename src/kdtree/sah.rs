@@ -55,9 +55,10 @@ impl CostModel {
         self.ci_over_ct * n as f32
     }
 
-    /// The cheapest plane in `cell` among a small node's [`Candidates`]: every event position
-    /// strictly inside the cell; `None` when there is none (a cell flat on every axis but at
-    /// most one, or extents overflowing f32).
+    /// The cheapest plane in `cell` among a small node's [`ExactPlanes`]: every face of its
+    /// boxes strictly inside the cell; `None` when there is none (a cell flat on every axis but
+    /// at most one, or extents overflowing f32). Costed in the lanes of `isa`, with the same
+    /// plane, cost and counts on every ISA.
     ///
     /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
     /// `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where `P` are the children's surface areas over
@@ -68,30 +69,7 @@ impl CostModel {
     ///
     /// Ties keep the first plane found (axes in order, positions ascending), and the below side
     /// for the triangles lying in the plane.
-    pub fn best_split(&self, candidates: &Candidates, cell: &Aabb) -> Option<Split> {
-        let mut best: Option<Split> = None;
-        for (axis, list) in candidates.axes.iter().enumerate() {
-            let Some(geometry) = AxisGeometry::new(cell, axis) else {
-                continue;
-            };
-            if let Some(found) = self.best_on_axis(list, &geometry, axis) {
-                if best.is_none_or(|b| found.cost < b.cost) {
-                    best = Some(found);
-                }
-            }
-        }
-        best
-    }
-
-    /// [`CostModel::best_split`] among a small node's [`CountedPlanes`], computed in the lanes of
-    /// `isa`: the same plane, cost and counts bit for bit (the planes are the same, the weights
-    /// are rounded alike, and the ties are broken alike), whatever the ISA.
-    pub fn best_counted_split(
-        &self,
-        isa: Isa,
-        planes: &CountedPlanes,
-        cell: &Aabb,
-    ) -> Option<Split> {
+    pub fn best_split(&self, isa: Isa, planes: &ExactPlanes, cell: &Aabb) -> Option<Split> {
         let cells = [0, 1, 2].map(|axis| {
             AxisGeometry::new(cell, axis).map(|g| AxisCell {
                 base: g.base,
@@ -202,129 +180,27 @@ impl CostModel {
         };
         lambda * (p_below * nb + p_above * na)
     }
-
-    /// The cheapest of one axis's candidates strictly inside the cell.
-    #[inline]
-    fn best_on_axis(&self, list: &[Candidate], g: &AxisGeometry, axis: usize) -> Option<Split> {
-        let mut best_weighted = f32::INFINITY;
-        let mut best = (0.0f32, true, 0u32, 0u32);
-        for c in list {
-            if !(c.pos > g.lo && c.pos < g.hi) {
-                continue;
-            }
-            let (p_below, p_above) = g.areas(c.pos);
-            let (nb, na) = (c.below as f32, c.above as f32);
-            let (w, planar_below) = if c.planar == 0 {
-                (self.weighted(p_below, p_above, nb, na), true)
-            } else {
-                let np = c.planar as f32;
-                let below = self.weighted(p_below, p_above, nb + np, na);
-                let above = self.weighted(p_below, p_above, nb, na + np);
-                if below <= above {
-                    (below, true)
-                } else {
-                    (above, false)
-                }
-            };
-            if w < best_weighted {
-                best_weighted = w;
-                let (pb, pa) = if planar_below {
-                    (c.planar, 0)
-                } else {
-                    (0, c.planar)
-                };
-                best = (c.pos, planar_below, c.below + pb, c.above + pa);
-            }
-        }
-        (best_weighted < f32::INFINITY).then_some(Split {
-            axis,
-            pos_key: key(best.0),
-            planar_below: best.1,
-            cost: 1.0 + self.ci_over_ct * best_weighted,
-            below_count: best.2,
-            above_count: best.3,
-        })
-    }
 }
 
-/// A distinct event position on an axis of a small node, with the sweep's counts there.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Candidate {
-    /// The position (never `-0.0`).
-    pos: f32,
-    /// Triangles reaching below it: starting before it, or flat before it.
-    below: u32,
-    /// Triangles reaching above it: ending after it, or flat after it.
-    above: u32,
-    /// Triangles flat in it.
-    planar: u32,
-}
-
-/// A small node's candidate planes per axis, gathered once by the sweep and kept across the
-/// empty-space cuts of the node, which change its cell, not its triangles.
+/// A small node's candidate planes with exact counts: per axis, every face of its boxes
+/// strictly inside the cell, with the boxes below, above and in it. Filled by counting each
+/// plane against each box in SIMD lanes ([`ExactPlanes::count`],
+/// [`kdbeam_kernels::split_planes`]) or by Wald & Havran's sweep of the sorted events
+/// ([`ExactPlanes::sweep`]); either way the same planes and counts (the count lists a position
+/// once per box face there, the sweep once), kept across the node's empty-space cuts, which
+/// change its cell, not its triangles.
 #[derive(Default)]
-pub(super) struct Candidates {
-    axes: [Vec<Candidate>; 3],
-}
-
-impl Candidates {
-    /// Replaces the contents with the candidates of a node of `n` triangles with sorted
-    /// per-axis `events`, at positions strictly inside `cell`.
-    ///
-    /// One sweep per axis (Algorithm 4): at each distinct position p, with p⁻, p|, p⁺ the
-    /// numbers of end, planar and start events there, `N_above −= p⁻ + p|`, the candidate is
-    /// recorded, then `N_below += p⁺ + p|`. Written as one pass that records where the position
-    /// changes, with the counts updated without branches on the event kind.
-    pub fn gather(&mut self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) {
-        for (axis, (list, out)) in events.iter().zip(&mut self.axes).enumerate() {
-            out.clear();
-            let (lo_key, hi_key) = (key(cell.min[axis]), key(cell.max[axis]));
-            let (mut below, mut above) = (0u32, n as u32);
-            let (mut planar, mut joining_below) = (0u32, 0u32);
-            for (i, &e) in list.iter().enumerate() {
-                let k = kind(e);
-                above -= u32::from(k != START);
-                planar += u32::from(k == PLANAR);
-                joining_below += u32::from(k != END);
-                let here = pos_key(e);
-                let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
-                if next == here {
-                    continue;
-                }
-                if here > lo_key && here < hi_key {
-                    out.push(Candidate {
-                        pos: unkey(here),
-                        below,
-                        above,
-                        planar,
-                    });
-                }
-                below += joining_below;
-                joining_below = 0;
-                planar = 0;
-            }
-        }
-    }
-}
-
-/// A small node's candidate planes, counted in SIMD lanes instead of swept
-/// ([`kdbeam_kernels::split_planes`]): per axis, a plane at each face of each box, with the
-/// boxes below, above and in it. The same planes and counts as [`Candidates`] (where boxes
-/// share a face, its position appears once per box), kept likewise across the node's
-/// empty-space cuts.
-#[derive(Default)]
-pub(super) struct CountedPlanes {
+pub(super) struct ExactPlanes {
     axes: [AxisCounts; 3],
 }
 
-/// One axis of [`CountedPlanes`]. The buffers only grow; the planes are their first `len`
+/// One axis of [`ExactPlanes`]. The buffers only grow; the planes are their first `len`
 /// entries.
 #[derive(Default)]
 struct AxisCounts {
     /// Is some box flat on this axis?
     flat: bool,
-    /// The number of planes: the faces strictly inside the cell, then NaN up to a multiple of 8
-    /// lanes.
+    /// The number of planes, then NaN up to a multiple of 8 lanes.
     len: usize,
     pos: Vec<f32>,
     below: Vec<f32>,
@@ -332,7 +208,7 @@ struct AxisCounts {
     planar: Vec<f32>,
 }
 
-impl CountedPlanes {
+impl ExactPlanes {
     /// Replaces the contents with the planes of `boxes` (at most 2²³) strictly inside `cell`,
     /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
     /// outside it can come back.)
@@ -349,13 +225,72 @@ impl CountedPlanes {
             },
         );
     }
+
+    /// Replaces the contents with the planes of a node of `n` triangles with sorted per-axis
+    /// `events`, at positions strictly inside `cell`.
+    ///
+    /// One sweep per axis (Algorithm 4): at each distinct position p, with p⁻, p|, p⁺ the
+    /// numbers of end, planar and start events there, `N_above −= p⁻ + p|`, the plane is
+    /// recorded, then `N_below += p⁺ + p|`. Written as one pass that records where the position
+    /// changes, with the counts updated without branches on the event kind.
+    pub fn sweep(&mut self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) {
+        for (axis, (list, out)) in events.iter().zip(&mut self.axes).enumerate() {
+            out.make_room(list.len());
+            let (lo_key, hi_key) = (key(cell.min[axis]), key(cell.max[axis]));
+            let (mut below, mut above) = (0u32, n as u32);
+            let (mut planar, mut joining_below) = (0u32, 0u32);
+            let (mut len, mut flat) = (0, false);
+            for (i, &e) in list.iter().enumerate() {
+                let k = kind(e);
+                above -= u32::from(k != START);
+                planar += u32::from(k == PLANAR);
+                joining_below += u32::from(k != END);
+                let here = pos_key(e);
+                let next = list.get(i + 1).map_or(u32::MAX, |&e| pos_key(e));
+                if next == here {
+                    continue;
+                }
+                if here > lo_key && here < hi_key {
+                    out.pos[len] = unkey(here);
+                    out.below[len] = below as f32;
+                    out.above[len] = above as f32;
+                    out.planar[len] = planar as f32;
+                    flat |= planar != 0;
+                    len += 1;
+                }
+                below += joining_below;
+                joining_below = 0;
+                planar = 0;
+            }
+            out.flat = flat;
+            out.pad(len);
+        }
+    }
 }
 
 impl AxisCounts {
     /// Takes the planes of axis `AXIS` of `boxes` strictly inside `cell`, without branches on
     /// the data (which planes lie inside is as good as random).
     fn fill<const AXIS: usize>(&mut self, boxes: &[Aabb], cell: &Aabb) {
-        let room = (2 * boxes.len()).next_multiple_of(8);
+        self.make_room(2 * boxes.len());
+        let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
+        let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
+        let (pos, mut len, mut flat) = (&mut self.pos[..], 0, false);
+        for b in boxes {
+            let (lo, hi) = (b.min[AXIS], b.max[AXIS]);
+            flat |= lo == hi;
+            pos[len] = lo;
+            len += inside(lo);
+            pos[len] = hi;
+            len += inside(hi);
+        }
+        self.flat = flat;
+        self.pad(len);
+    }
+
+    /// Grows the buffers to hold `planes` planes and their padding.
+    fn make_room(&mut self, planes: usize) {
+        let room = planes.next_multiple_of(8);
         if self.pos.len() < room {
             for list in [
                 &mut self.pos,
@@ -366,20 +301,12 @@ impl AxisCounts {
                 list.resize(room, 0.0);
             }
         }
-        let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
-        let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
-        let (pos, mut len, mut flat) = (&mut self.pos[..room], 0, false);
-        for b in boxes {
-            let (lo, hi) = (b.min[AXIS], b.max[AXIS]);
-            flat |= lo == hi;
-            pos[len] = lo;
-            len += inside(lo);
-            pos[len] = hi;
-            len += inside(hi);
-        }
-        self.flat = flat;
+    }
+
+    /// Ends the planes at `len`, padded with NaN positions to a multiple of 8 lanes.
+    fn pad(&mut self, len: usize) {
         self.len = len.next_multiple_of(8);
-        pos[len..self.len].fill(f32::NAN);
+        self.pos[len..self.len].fill(f32::NAN);
     }
 
     /// The planes' positions.
@@ -388,9 +315,9 @@ impl AxisCounts {
     }
 }
 
-/// [`CountedPlanes::count`]'s kernel calls, in one ISA entry point.
+/// [`ExactPlanes::count`]'s kernel calls, in one ISA entry point.
 struct Count<'a> {
-    planes: &'a mut CountedPlanes,
+    planes: &'a mut ExactPlanes,
     boxes: &'a [Aabb],
 }
 
@@ -414,10 +341,10 @@ impl LaneTask for Count<'_> {
     }
 }
 
-/// [`CostModel::best_counted_split`]'s kernel calls: the cheapest plane of each axis with a cell
+/// [`CostModel::best_split`]'s kernel calls: the cheapest plane of each axis with a cell
 /// span, in one ISA entry point.
 struct Cheapest<'a> {
-    planes: &'a CountedPlanes,
+    planes: &'a ExactPlanes,
     cells: [Option<AxisCell>; 3],
 }
 
@@ -574,14 +501,25 @@ mod tests {
             list.sort_unstable();
         }
         let cell = Aabb::new(Vec3::new(-1.0, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0));
-        let mut candidates = Candidates::default();
-        candidates.gather(&events, 3, &cell);
-        let got: Vec<_> = candidates.axes[0]
-            .iter()
-            .map(|c| (c.pos, c.below, c.above, c.planar))
-            .collect();
-        assert_eq!(got, [(0.0, 0, 3, 0), (1.0, 1, 1, 1), (2.0, 3, 0, 0)]);
-        assert!(candidates.axes[1].is_empty() && candidates.axes[2].is_empty());
+        let mut planes = ExactPlanes::default();
+        planes.sweep(&events, 3, &cell);
+        let listed = |a: &AxisCounts| -> Vec<_> {
+            let real = a.pos().iter().take_while(|p| !p.is_nan()).count();
+            (0..real)
+                .map(|i| (a.pos[i], a.below[i], a.above[i], a.planar[i]))
+                .collect()
+        };
+        let x = &planes.axes[0];
+        assert_eq!(
+            listed(x),
+            [
+                (0.0, 0.0, 3.0, 0.0),
+                (1.0, 1.0, 1.0, 1.0),
+                (2.0, 3.0, 0.0, 0.0)
+            ]
+        );
+        assert!(x.flat && x.pos()[3..].iter().all(|p| p.is_nan()));
+        assert!(listed(&planes.axes[1]).is_empty() && listed(&planes.axes[2]).is_empty());
     }
 
     #[test]
