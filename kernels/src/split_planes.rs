@@ -16,7 +16,6 @@
 //! box and plane vector) and returned as `f32`: exact for the at most 2²⁴ boxes a caller may
 //! pass, and already in the form the cost needs.
 
-use crate::aabb::Aabb;
 use crate::lanes::{LaneCount, LaneF32, Lanes};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
@@ -65,33 +64,31 @@ pub struct CheapestPlane {
     pub planar_below: bool,
 }
 
-/// Counts `boxes` on each side of each plane `pos[k]` across `axis`, with `lo` and `hi` each
-/// box's faces on that axis: `below[k] = #{lo < p}`, `above[k] = #{hi > p}`, and
+/// Counts boxes on each side of each plane `pos[k]` across one axis, with `spans` each box's
+/// faces `(lo, hi)` on that axis: `below[k] = #{lo < p}`, `above[k] = #{hi > p}`, and
 /// `planar[k] = #{lo = hi = p}` when `flat` (some box is flat on this axis), else 0.
+///
+/// `spans` is walked once per two vectors of planes: an iterator over the boxes in place (such
+/// as `boxes.iter().map(|b| (b.min.x, b.max.x))`), cheap to clone.
 ///
 /// Edge cases: a NaN position counts nothing (every comparison is false); `-0.0` and `+0.0` are
 /// the same plane.
 ///
 /// # Panics
-/// If `axis` is not 0, 1 or 2, or `below`, `above` or `planar` is shorter than `pos`, or the
-/// length of `pos` is not a multiple of `L::WIDTH`.
+/// If `below`, `above` or `planar` is shorter than `pos`, or the length of `pos` is not a
+/// multiple of `L::WIDTH`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 pub fn count_planes<L: Lanes>(
     l: L,
-    boxes: &[Aabb],
-    axis: usize,
+    spans: impl Iterator<Item = (f32, f32)> + Clone,
     flat: bool,
     pos: &[f32],
     below: &mut [f32],
     above: &mut [f32],
     planar: &mut [f32],
 ) {
-    assert!(axis < 3 && pos.len().is_multiple_of(L::WIDTH));
+    assert!(pos.len().is_multiple_of(L::WIDTH));
     assert!(below.len() >= pos.len() && above.len() >= pos.len() && planar.len() >= pos.len());
-    // Read in place, as `[min.x, min.y, min.z, max.x, max.y, max.z]`.
-    let faces: &[[f32; 6]] = bytemuck::cast_slice(boxes);
-    let boxes = faces.iter().map(|f| (f[axis], f[axis + 3]));
     // Two vectors of planes per pass over the boxes, so that each box is broadcast once for
     // both; then the odd one out.
     let pairs = pos.len() / (2 * L::WIDTH) * (2 * L::WIDTH);
@@ -99,7 +96,7 @@ pub fn count_planes<L: Lanes>(
     for k in (0..pairs).step_by(2 * L::WIDTH) {
         count_block::<L, 2>(
             l,
-            boxes.clone(),
+            spans.clone(),
             flat,
             &pos[k..],
             lists.each_mut().map(|list| &mut list[k..]),
@@ -108,7 +105,7 @@ pub fn count_planes<L: Lanes>(
     for k in (pairs..pos.len()).step_by(L::WIDTH) {
         count_block::<L, 1>(
             l,
-            boxes.clone(),
+            spans.clone(),
             flat,
             &pos[k..],
             lists.each_mut().map(|list| &mut list[k..]),

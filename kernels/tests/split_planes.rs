@@ -9,13 +9,11 @@ use kdbeam_kernels::lanes::run_on;
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
-use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes, Vec3};
+use kdbeam_kernels::{Isa, LaneTask, Lanes};
 
-/// Boxes, their faces on one axis, and the planes at those faces (padded with NaN to a
-/// multiple of 8).
+/// Boxes' faces on one axis, and the planes at those faces (padded with NaN to a multiple
+/// of 8).
 struct Case {
-    boxes: Vec<Aabb>,
-    axis: usize,
     lo: Vec<f32>,
     hi: Vec<f32>,
     flat: bool,
@@ -40,23 +38,7 @@ fn case(rng: &mut Rng, n: usize) -> Case {
     let flat = lo.iter().zip(&hi).any(|(a, b)| a == b);
     let mut pos: Vec<f32> = lo.iter().chain(&hi).copied().collect();
     pos.resize(pos.len().div_ceil(8) * 8, f32::NAN);
-    // The faces on one axis; the other axes hold other boxes' faces, which must not count.
-    let axis = rng.below(3);
-    let boxes = (0..n)
-        .map(|i| {
-            let (mut min, mut max) = (Vec3::splat(lo[(i + 1) % n]), Vec3::splat(hi[(i + 2) % n]));
-            (min[axis], max[axis]) = (lo[i], hi[i]);
-            Aabb::new(min, max)
-        })
-        .collect();
-    Case {
-        boxes,
-        axis,
-        lo,
-        hi,
-        flat,
-        pos,
-    }
+    Case { lo, hi, flat, pos }
 }
 
 /// The counts by definition, one plane and one box at a time.
@@ -139,7 +121,8 @@ impl LaneTask for Count<'_> {
         let c = self.0;
         let mut out = [(); 3].map(|_| vec![-1.0; c.pos.len()]);
         let [below, above, planar] = &mut out;
-        count_planes(l, &c.boxes, c.axis, c.flat, &c.pos, below, above, planar);
+        let spans = c.lo.iter().copied().zip(c.hi.iter().copied());
+        count_planes(l, spans, c.flat, &c.pos, below, above, planar);
         out
     }
 }

@@ -28,7 +28,7 @@
 //! threshold and the bin count were chosen by measured build time and SAH tree cost on the
 //! shared scenes.
 //!
-//! A node's references (ids and clipped boxes) are a run of one per-thread stack ([`Refs`]):
+//! A node's references ([`Ref`]: ids and clipped boxes) are a run of one per-thread stack:
 //! a split pushes its children's above it, and they are popped once the subtree is built, so
 //! no node allocates.
 //!
@@ -39,12 +39,14 @@
 use std::ops::Range;
 use std::time::Instant;
 
+use bytemuck::Zeroable;
 use kdbeam_kernels::lanes::prefetch;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
 
 use super::clip::split_clipped_bounds;
 use super::events::{push_box_events, unkey, Event};
 use super::layout::Layout;
+use super::refs::{Bounds, Ref};
 use super::sah::{Bins, CostModel, ExactPlanes, Split};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::trace::{check_isa, isa_from_env};
@@ -64,45 +66,12 @@ const COUNTED_SEARCH_MAX: usize = 128;
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
 
-/// A node waiting to be built: its run of the thread's [`Refs`], its cell, and the union of its
-/// boxes (which lies inside the cell).
+/// A node waiting to be built: its run of the thread's references ([`Scratch::refs`]), its
+/// cell, and the union of its boxes (which lies inside the cell).
 struct BoxNode {
     refs: Range<usize>,
     cell: Aabb,
     union: Aabb,
-}
-
-/// One thread's triangle references, used as a stack: a node's references are a run of it,
-/// its children's are pushed above them when it is split, and a subtree's are popped when it
-/// has been built. No allocation per node, and each node's references lie together in memory.
-#[derive(Default)]
-struct Refs {
-    /// Mesh ids.
-    ids: Vec<u32>,
-    /// The triangles' boxes clipped to their node's cell, in the same order.
-    boxes: Vec<Aabb>,
-}
-
-impl Refs {
-    fn len(&self) -> usize {
-        self.ids.len()
-    }
-
-    fn push(&mut self, id: u32, b: Aabb) {
-        self.ids.push(id);
-        self.boxes.push(b);
-    }
-
-    fn truncate(&mut self, len: usize) {
-        self.ids.truncate(len);
-        self.boxes.truncate(len);
-    }
-
-    /// Pushes the references `range` of `from`.
-    fn extend_from(&mut self, from: &Refs, range: Range<usize>) {
-        self.ids.extend_from_slice(&from.ids[range.clone()]);
-        self.boxes.extend_from_slice(&from.boxes[range]);
-    }
 }
 
 /// What stays the same for the whole build.
@@ -125,35 +94,39 @@ struct Context<'a> {
 }
 
 /// Per-thread buffers, reused by every node the thread builds.
+///
+/// `refs[..top]` is a stack: a node's references are a run of it, its children's are pushed
+/// above them when it is split, and a subtree's are popped when it has been built. No
+/// allocation per node, and each node's references lie together in memory.
 #[derive(Default)]
 struct Scratch {
-    refs: Refs,
+    /// The stack, and stale references above `top`: it only grows, so that a split writes its
+    /// children's references by index, with its cursors in registers.
+    refs: Vec<Ref>,
+    top: usize,
     /// A split's above references, until the below ones have been pushed.
-    above: Refs,
+    above: Vec<Ref>,
+    /// A leaf's ids, to be sorted.
+    leaf_ids: Vec<u32>,
     /// A split's straddling references (indices into `refs`), to be clipped.
     straddling: Vec<usize>,
     events: [Vec<Event>; 3],
     planes: ExactPlanes,
 }
 
-/// Fills `planes` with those of a small node with `boxes` in `cell` by Wald & Havran's sweep:
-/// the boxes' events, sorted per axis in `events`, swept.
-fn sweep_planes(
-    events: &mut [Vec<Event>; 3],
-    planes: &mut ExactPlanes,
-    boxes: &[Aabb],
-    cell: &Aabb,
-) {
+/// Fills `planes` with those of a small node with references `refs` in `cell` by Wald &
+/// Havran's sweep: the boxes' events, sorted per axis in `events`, swept.
+fn sweep_planes(events: &mut [Vec<Event>; 3], planes: &mut ExactPlanes, refs: &[Ref], cell: &Aabb) {
     for list in events.iter_mut() {
         list.clear();
     }
-    for b in boxes {
-        push_box_events(events, b);
+    for r in refs {
+        push_box_events(events, &r.aabb());
     }
     for list in events.iter_mut() {
         list.sort_unstable();
     }
-    planes.sweep(events, boxes.len(), cell);
+    planes.sweep(events, refs.len(), cell);
 }
 
 impl KdTree {
@@ -317,8 +290,7 @@ impl KdTreeBuilder {
             parallel: rayon::current_num_threads() > 1,
         };
         layout.clear();
-        scratch.refs.truncate(0);
-        let root = root_node(&context, bounds, &mut scratch.refs);
+        let root = root_node(&context, bounds, scratch);
         build_subtree(&context, root, 0, scratch, layout)?;
 
         let max_depth = layout.finish_into(&mut tree.nodes, &mut tree.leaves, &mut tree.ids);
@@ -348,20 +320,21 @@ impl KdTreeBuilder {
     }
 }
 
-/// The root: every triangle with its vertex box, pushed on `refs`.
-fn root_node(context: &Context<'_>, cell: Aabb, refs: &mut Refs) -> BoxNode {
-    refs.boxes.extend(
-        context
-            .triangles
-            .iter()
-            .map(|t| Aabb::from_points([t.v0, t.v1, t.v2])),
-    );
-    refs.ids.extend(0..context.triangles.len() as u32);
-    let union = refs.boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+/// The root: every triangle with its vertex box, the only references on `scratch`'s stack.
+fn root_node(context: &Context<'_>, cell: Aabb, scratch: &mut Scratch) -> BoxNode {
+    let mut union = Bounds::EMPTY;
+    let refs = &mut scratch.refs;
+    refs.clear();
+    refs.extend(context.triangles.iter().zip(0..).map(|(t, id)| {
+        let r = Ref::new(id, &Aabb::from_points([t.v0, t.v1, t.v2]));
+        union.add(&r);
+        r
+    }));
+    scratch.top = refs.len();
     BoxNode {
-        refs: 0..refs.len(),
+        refs: 0..scratch.top,
         cell,
-        union,
+        union: union.aabb(),
     }
 }
 
@@ -379,14 +352,14 @@ fn build_subtree(
     // Large nodes are searched by binning, small ones exactly; the search runs only while the
     // node may be split, so neither is prepared otherwise.
     let searched = may_split(context, n, depth);
-    let boxes = &scratch.refs.boxes[node.refs.clone()];
-    let bins = (searched && n > context.exact_max).then(|| Bins::new(boxes, node.union));
+    let refs = &scratch.refs[node.refs.clone()];
+    let bins = (searched && n > context.exact_max).then(|| Bins::new(refs, node.union));
     if searched && n <= context.exact_max {
         let Scratch { events, planes, .. } = scratch;
         if n <= context.count_max {
-            planes.count(context.isa, boxes, &node.cell);
+            planes.count(context.isa, refs, &node.cell);
         } else {
-            sweep_planes(events, planes, boxes, &node.cell);
+            sweep_planes(events, planes, refs, &node.cell);
         }
     }
     let planes = &scratch.planes;
@@ -403,12 +376,12 @@ fn build_subtree(
         },
     )?;
     match split {
-        None => make_leaf(&node, &mut scratch.refs, depth, out)?,
+        None => make_leaf(&node, scratch, depth, out)?,
         Some(split) => {
-            let mark = scratch.refs.len();
+            let mark = scratch.top;
             let (below, above) = split_boxes(context, &node, &split, scratch);
             build_children(context, below, above, &split, n, depth, scratch, out)?;
-            scratch.refs.truncate(mark);
+            scratch.top = mark;
         }
     }
     close_cuts(out, open)
@@ -507,9 +480,10 @@ fn build_children(
         let mut above_scratch = Scratch::default();
         above_scratch
             .refs
-            .extend_from(&scratch.refs, above.refs.clone());
+            .extend_from_slice(&scratch.refs[above.refs.clone()]);
+        above_scratch.top = above_scratch.refs.len();
         let above = BoxNode {
-            refs: 0..above_scratch.refs.len(),
+            refs: 0..above_scratch.top,
             ..above
         };
         let (mut below_out, mut above_out) = (Layout::default(), Layout::default());
@@ -541,14 +515,16 @@ fn build_children(
     build_subtree(context, above, depth + 1, scratch, out)
 }
 
-/// Emits `node` as a leaf: its ids (in `refs`) sorted ascending, its box the union of its
-/// triangles' clipped boxes (which lies inside the cell).
-fn make_leaf(node: &BoxNode, refs: &mut Refs, depth: u32, out: &mut Layout) -> Result<()> {
+/// Emits `node` as a leaf: its ids sorted ascending, its box the union of its triangles'
+/// clipped boxes (which lies inside the cell).
+fn make_leaf(node: &BoxNode, scratch: &mut Scratch, depth: u32, out: &mut Layout) -> Result<()> {
     if node.refs.is_empty() {
         out.push_empty_leaf(depth);
         return Ok(());
     }
-    let ids = &mut refs.ids[node.refs.clone()];
+    let ids = &mut scratch.leaf_ids;
+    ids.clear();
+    ids.extend(scratch.refs[node.refs.clone()].iter().map(Ref::id));
     ids.sort_unstable();
     out.push_leaf(depth, ids, node.union)
 }
@@ -616,58 +592,74 @@ fn split_boxes_on<const AXIS: usize>(
     above_cell.min[axis] = p;
     let Scratch {
         refs,
+        top,
         above,
         straddling,
         ..
     } = scratch;
-    above.truncate(0);
+    // Each reference has at most one part on either side.
+    let (first, n) = (*top, node.refs.len());
+    if refs.len() < first + 2 * n {
+        refs.resize(first + 2 * n, Ref::zeroed());
+    }
+    if above.len() < n {
+        above.resize(n, Ref::zeroed());
+    }
     straddling.clear();
-    let first = refs.len();
-    let (mut below_union, mut above_union) = (Aabb::EMPTY, Aabb::EMPTY);
+    let (mut below_end, mut above_len) = (first, 0);
+    let (mut below_union, mut above_union) = (Bounds::EMPTY, Bounds::EMPTY);
     for i in node.refs.clone() {
-        let (id, b) = (refs.ids[i], refs.boxes[i]);
-        match side_of(b.min[axis], b.max[axis], p, split.planar_below) {
+        let r = refs[i];
+        let (lo, hi) = r.span(axis);
+        match side_of(lo, hi, p, split.planar_below) {
             Side::Below => {
-                refs.push(id, b);
-                below_union = below_union.union(b);
+                refs[below_end] = r;
+                below_end += 1;
+                below_union.add(&r);
             }
             Side::Above => {
-                above.push(id, b);
-                above_union = above_union.union(b);
+                above[above_len] = r;
+                above_len += 1;
+                above_union.add(&r);
             }
             // Clipped below, once the loads of their triangles, random in the mesh, are under
             // way.
             Side::Both => {
-                prefetch(&context.triangles[id as usize]);
+                prefetch(&context.triangles[r.id() as usize]);
                 straddling.push(i);
             }
         }
     }
     for &i in straddling.iter() {
-        let id = refs.ids[i];
+        let id = refs[i].id();
         let tri = &context.triangles[id as usize];
         let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
         if let Some(part) = below_part {
-            refs.push(id, part);
-            below_union = below_union.union(part);
+            let r = Ref::new(id, &part);
+            refs[below_end] = r;
+            below_end += 1;
+            below_union.add(&r);
         }
         if let Some(part) = above_part {
-            above.push(id, part);
-            above_union = above_union.union(part);
+            let r = Ref::new(id, &part);
+            above[above_len] = r;
+            above_len += 1;
+            above_union.add(&r);
         }
     }
-    let middle = refs.len();
-    refs.extend_from(above, 0..above.len());
+    let middle = below_end;
+    *top = middle + above_len;
+    refs[middle..*top].copy_from_slice(&above[..above_len]);
     (
         BoxNode {
             refs: first..middle,
             cell: below_cell,
-            union: below_union,
+            union: below_union.aabb(),
         },
         BoxNode {
-            refs: middle..refs.len(),
+            refs: middle..*top,
             cell: above_cell,
-            union: above_union,
+            union: above_union.aabb(),
         },
     )
 }

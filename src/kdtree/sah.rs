@@ -7,9 +7,10 @@ use kdbeam_kernels::lanes::truncate_to_i32;
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
-use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes, Vec3};
+use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
+use super::refs::Ref;
 use super::BuildParams;
 use crate::trace::dispatch::run_on;
 
@@ -209,21 +210,15 @@ struct AxisCounts {
 }
 
 impl ExactPlanes {
-    /// Replaces the contents with the planes of `boxes` (at most 2²³) strictly inside `cell`,
-    /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
-    /// outside it can come back.)
-    pub fn count(&mut self, isa: Isa, boxes: &[Aabb], cell: &Aabb) {
+    /// Replaces the contents with the planes of the boxes of `refs` (at most 2²³) strictly
+    /// inside `cell`, counted in the lanes of `isa`. (The empty-space cuts only shrink the cell,
+    /// so no plane outside it can come back.)
+    pub fn count(&mut self, isa: Isa, refs: &[Ref], cell: &Aabb) {
         let [x, y, z] = &mut self.axes;
-        x.fill::<0>(boxes, cell);
-        y.fill::<1>(boxes, cell);
-        z.fill::<2>(boxes, cell);
-        run_on(
-            isa,
-            Count {
-                planes: self,
-                boxes,
-            },
-        );
+        x.fill::<0>(refs, cell);
+        y.fill::<1>(refs, cell);
+        z.fill::<2>(refs, cell);
+        run_on(isa, Count { planes: self, refs });
     }
 
     /// Replaces the contents with the planes of a node of `n` triangles with sorted per-axis
@@ -269,15 +264,15 @@ impl ExactPlanes {
 }
 
 impl AxisCounts {
-    /// Takes the planes of axis `AXIS` of `boxes` strictly inside `cell`, without branches on
-    /// the data (which planes lie inside is as good as random).
-    fn fill<const AXIS: usize>(&mut self, boxes: &[Aabb], cell: &Aabb) {
-        self.make_room(2 * boxes.len());
+    /// Takes the planes of axis `AXIS` of the boxes of `refs` strictly inside `cell`, without
+    /// branches on the data (which planes lie inside is as good as random).
+    fn fill<const AXIS: usize>(&mut self, refs: &[Ref], cell: &Aabb) {
+        self.make_room(2 * refs.len());
         let (cell_lo, cell_hi) = (cell.min[AXIS], cell.max[AXIS]);
         let inside = |p: f32| usize::from(p > cell_lo && p < cell_hi);
         let (pos, mut len, mut flat) = (&mut self.pos[..], 0, false);
-        for b in boxes {
-            let (lo, hi) = (b.min[AXIS], b.max[AXIS]);
+        for r in refs {
+            let (lo, hi) = r.span(AXIS);
             flat |= lo == hi;
             pos[len] = lo;
             len += inside(lo);
@@ -318,7 +313,7 @@ impl AxisCounts {
 /// [`ExactPlanes::count`]'s kernel calls, in one ISA entry point.
 struct Count<'a> {
     planes: &'a mut ExactPlanes,
-    boxes: &'a [Aabb],
+    refs: &'a [Ref],
 }
 
 impl LaneTask for Count<'_> {
@@ -329,8 +324,7 @@ impl LaneTask for Count<'_> {
             let len = c.len;
             count_planes(
                 l,
-                self.boxes,
-                axis,
+                self.refs.iter().map(|r| r.span(axis)),
                 c.flat,
                 &c.pos[..len],
                 &mut c.below[..len],
@@ -442,26 +436,22 @@ pub(super) struct Bins {
 }
 
 impl Bins {
-    /// The counts of non-empty boxes `boxes` (at most 2³² − 1) whose union is `union`.
-    pub fn new(boxes: &[Aabb], union: Aabb) -> Bins {
+    /// The counts of the non-empty boxes of `refs` (at most 2³² − 1), whose union is `union`.
+    pub fn new(refs: &[Ref], union: Aabb) -> Bins {
         let per_unit = (BINS as f32 / union.extent()).to_array();
         let mut bins = Bins {
             union,
             per_unit,
             starts: [[0; BINS]; 3],
             ends: [[0; BINS]; 3],
-            count: boxes.len() as u32,
+            count: refs.len() as u32,
         };
         let (first, scale) = (Vec3A::from(union.min), Vec3A::from_array(per_unit));
         let last = Vec3A::splat((BINS - 1) as f32);
         // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
-        let bin = |x: Vec3| {
-            ((Vec3A::from(x) - first) * scale)
-                .max(Vec3A::ZERO)
-                .min(last)
-        };
-        for b in boxes {
-            let (lo, hi) = (truncate_to_i32(bin(b.min)), truncate_to_i32(bin(b.max)));
+        let bin = |x: Vec3A| ((x - first) * scale).max(Vec3A::ZERO).min(last);
+        for r in refs {
+            let (lo, hi) = (truncate_to_i32(bin(r.lo())), truncate_to_i32(bin(r.hi())));
             for axis in 0..3 {
                 bins.starts[axis][bin_index(lo[axis])] += 1;
                 bins.ends[axis][bin_index(hi[axis])] += 1;
@@ -480,6 +470,7 @@ impl Bins {
 mod tests {
     use super::*;
     use crate::kdtree::events::push_box_events;
+    use kdbeam_kernels::Vec3;
 
     fn boxes_x(spans: &[(f32, f32)]) -> Vec<Aabb> {
         spans
@@ -533,7 +524,12 @@ mod tests {
             })
             .collect();
         let boxes = boxes_x(&spans);
-        let bins = Bins::new(&boxes, boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b)));
+        let refs: Vec<Ref> = boxes
+            .iter()
+            .zip(0..)
+            .map(|(b, id)| Ref::new(id, b))
+            .collect();
+        let bins = Bins::new(&refs, boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b)));
         // In a cell twice as wide, the empty space above goes first, cut at the union's face.
         let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
         let cut = costs.best_binned_split(&bins, &wide).unwrap();
