@@ -29,8 +29,8 @@
 //! shared scenes.
 //!
 //! A node's references ([`Ref`]: ids and clipped boxes) are a run of one per-thread stack:
-//! a split pushes its children's above it, and they are popped once the subtree is built, so
-//! no node allocates.
+//! a split writes its below child's over them and pushes its above child's, which are popped
+//! once the subtree is built, so no node allocates.
 //!
 //! With the `parallel` feature, the two children of a large node are built with `rayon::join`
 //! and their layouts stitched; the search and the classification do not depend on it, so the
@@ -47,7 +47,7 @@ use super::clip::split_clipped_bounds;
 use super::events::{push_box_events, unkey, Event};
 use super::layout::Layout;
 use super::refs::{Bounds, Ref};
-use super::sah::{Bins, CostModel, ExactPlanes, Split};
+use super::sah::{Bins, CostModel, ExactPlanes, Split, COUNTED_SEARCH_MAX};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::trace::{check_isa, isa_from_env};
 use crate::{Error, Mesh, Result};
@@ -55,13 +55,6 @@ use crate::{Error, Mesh, Result};
 /// Nodes with more triangles than this build their children in parallel.
 #[cfg(feature = "parallel")]
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
-
-/// Exact searches of nodes of at most this many triangles count their planes in SIMD lanes
-/// ([`ExactPlanes::count`]), `O(n²)` but branch-free; larger ones (when
-/// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. On the
-/// dragon with exact searches up to 128 triangles, counting them all built in 145.6 ms against
-/// 149.1 ms for sweeping those above 64 (one run each: within the noise, so not slower).
-const COUNTED_SEARCH_MAX: usize = 128;
 
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
@@ -95,21 +88,20 @@ struct Context<'a> {
 
 /// Per-thread buffers, reused by every node the thread builds.
 ///
-/// `refs[..top]` is a stack: a node's references are a run of it, its children's are pushed
-/// above them when it is split, and a subtree's are popped when it has been built. No
-/// allocation per node, and each node's references lie together in memory.
+/// `refs[..top]` is a stack: a node's references are a run of it; when it is split, its below
+/// child's take their place and its above child's are pushed, and a subtree's are popped when
+/// it has been built. No allocation per node, and each node's references lie together in
+/// memory.
 #[derive(Default)]
 struct Scratch {
     /// The stack, and stale references above `top`: it only grows, so that a split writes its
     /// children's references by index, with its cursors in registers.
     refs: Vec<Ref>,
     top: usize,
-    /// A split's above references, until the below ones have been pushed.
-    above: Vec<Ref>,
     /// A leaf's ids, to be sorted.
     leaf_ids: Vec<u32>,
-    /// A split's straddling references (indices into `refs`), to be clipped.
-    straddling: Vec<usize>,
+    /// The ids of a split's straddling triangles, to be clipped.
+    straddling: Vec<u32>,
     events: [Vec<Event>; 3],
     planes: ExactPlanes,
 }
@@ -561,9 +553,10 @@ fn side_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> Side {
 
 /// Splits `node` at `split` (which has triangles on both sides): one-sided triangles go to
 /// their side with their boxes, straddling ones are clipped to each child cell (and left out
-/// of a child they do not meet). The children's references are pushed on `scratch.refs`,
-/// below then above; within each, the one-sided triangles come first, in the node's order, then
-/// the clipped ones.
+/// of a child they do not meet). The below child's references replace the node's on
+/// `scratch.refs`, and the above child's are pushed on top, so that the stack grows by the
+/// above children alone on the way down; within each, the one-sided triangles come first, in
+/// the node's order, then the clipped ones.
 fn split_boxes(
     context: &Context<'_>,
     node: &BoxNode,
@@ -593,20 +586,18 @@ fn split_boxes_on<const AXIS: usize>(
     let Scratch {
         refs,
         top,
-        above,
         straddling,
         ..
     } = scratch;
-    // Each reference has at most one part on either side.
-    let (first, n) = (*top, node.refs.len());
-    if refs.len() < first + 2 * n {
-        refs.resize(first + 2 * n, Ref::zeroed());
-    }
-    if above.len() < n {
-        above.resize(n, Ref::zeroed());
+    // Each reference has at most one part on either side, and its below part is written
+    // after it has been read: the below child's references take the node's place, and the
+    // above child's at most `n` slots at the stack's top.
+    let (first, n, above_first) = (node.refs.start, node.refs.len(), *top);
+    if refs.len() < above_first + n {
+        refs.resize(above_first + n, Ref::zeroed());
     }
     straddling.clear();
-    let (mut below_end, mut above_len) = (first, 0);
+    let (mut below_end, mut above_end) = (first, above_first);
     let (mut below_union, mut above_union) = (Bounds::EMPTY, Bounds::EMPTY);
     for i in node.refs.clone() {
         let r = refs[i];
@@ -618,20 +609,19 @@ fn split_boxes_on<const AXIS: usize>(
                 below_union.add(&r);
             }
             Side::Above => {
-                above[above_len] = r;
-                above_len += 1;
+                refs[above_end] = r;
+                above_end += 1;
                 above_union.add(&r);
             }
             // Clipped below, once the loads of their triangles, random in the mesh, are under
             // way.
             Side::Both => {
                 prefetch(&context.triangles[r.id() as usize]);
-                straddling.push(i);
+                straddling.push(r.id());
             }
         }
     }
-    for &i in straddling.iter() {
-        let id = refs[i].id();
+    for &id in straddling.iter() {
         let tri = &context.triangles[id as usize];
         let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
         if let Some(part) = below_part {
@@ -642,22 +632,20 @@ fn split_boxes_on<const AXIS: usize>(
         }
         if let Some(part) = above_part {
             let r = Ref::new(id, &part);
-            above[above_len] = r;
-            above_len += 1;
+            refs[above_end] = r;
+            above_end += 1;
             above_union.add(&r);
         }
     }
-    let middle = below_end;
-    *top = middle + above_len;
-    refs[middle..*top].copy_from_slice(&above[..above_len]);
+    *top = above_end;
     (
         BoxNode {
-            refs: first..middle,
+            refs: first..below_end,
             cell: below_cell,
             union: below_union.aabb(),
         },
         BoxNode {
-            refs: middle..*top,
+            refs: above_first..above_end,
             cell: above_cell,
             union: above_union.aabb(),
         },

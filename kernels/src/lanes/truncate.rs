@@ -18,10 +18,13 @@ use glam::Vec3A;
 pub fn truncate_to_i32(v: Vec3A) -> [i32; 3] {
     #[cfg(target_arch = "x86_64")]
     {
-        use core::arch::x86_64::{_mm_cvttps_epi32, _mm_setr_ps};
-        // SAFETY: SSE2 is part of the x86-64 baseline: every x86-64 CPU runs these two
-        // intrinsics, which touch no memory.
-        let lanes = unsafe { _mm_cvttps_epi32(_mm_setr_ps(v.x, v.y, v.z, 0.0)) };
+        use core::arch::x86_64::{__m128, _mm_cvttps_epi32};
+        // `Vec3A`'s unused fourth lane is converted along (whatever it holds, with no effect
+        // but a masked floating-point flag) and dropped.
+        let v: __m128 = v.into();
+        // SAFETY: SSE2 is part of the x86-64 baseline: every x86-64 CPU runs this intrinsic,
+        // which touches no memory.
+        let lanes = unsafe { _mm_cvttps_epi32(v) };
         let [x, y, z, _]: [i32; 4] = bytemuck::cast(lanes);
         [x, y, z]
     }
