@@ -16,7 +16,7 @@
 //! box and plane vector) and returned as `f32`: exact for the at most 2²⁴ boxes a caller may
 //! pass, and already in the form the cost needs.
 
-use crate::lanes::{LaneCount, LaneF32, Lanes};
+use crate::lanes::{LaneCount, LaneF32, LaneMask, Lanes};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
 /// slice belongs to plane `k`. All the slices have the same length, a multiple of the widest
@@ -205,21 +205,28 @@ pub fn cheapest_plane<L: Lanes>(
         best_planar_below = L::F32::select(better, one.masked(planar_below), best_planar_below);
         lane_index = lane_index + step;
     }
-    // Across the lanes by the same rule, without branches: the lowest weight, then among its
-    // lanes the lowest position, then the lowest index.
+    // Across the lanes by the same rule: the lowest weight, then among its lanes the lowest
+    // position, then the lowest index. A tie in weight is rare, so one lane usually has it.
     let weight = best_weight.reduce_min();
     if weight == f32::INFINITY {
         return None;
     }
-    let inf = l.splat(f32::INFINITY);
     let lightest = best_weight.eq(l.splat(weight));
-    let lowest =
-        lightest & best_pos.eq(l.splat(L::F32::select(lightest, best_pos, inf).reduce_min()));
-    let index = L::F32::select(lowest, best_index, inf).reduce_min();
-    let first = lowest & best_index.eq(l.splat(index));
+    let winner = if lightest.bits().is_power_of_two() {
+        lightest
+    } else {
+        let inf = l.splat(f32::INFINITY);
+        let lowest =
+            lightest & best_pos.eq(l.splat(L::F32::select(lightest, best_pos, inf).reduce_min()));
+        let index = L::F32::select(lowest, best_index, inf).reduce_min();
+        lowest & best_index.eq(l.splat(index))
+    };
+    // Lane indices differ, so one lane is left.
+    let lane = winner.bits().trailing_zeros() as usize;
+    let (index, planar_below) = (best_index.extract(lane), best_planar_below.extract(lane));
     Some(CheapestPlane {
         index: index as usize,
         weight,
-        planar_below: best_planar_below.masked(first).reduce_max() != 0.0,
+        planar_below: planar_below != 0.0,
     })
 }
