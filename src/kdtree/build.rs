@@ -269,7 +269,6 @@ impl KdTreeBuilder {
         } = self;
         mesh_triangles.clear();
         mesh_triangles.extend(mesh.triangles());
-        let bounds = mesh.bounds();
         let context = Context {
             triangles: mesh_triangles,
             costs: CostModel::new(params),
@@ -282,7 +281,8 @@ impl KdTreeBuilder {
             parallel: rayon::current_num_threads() > 1,
         };
         layout.clear();
-        let root = root_node(&context, bounds, scratch);
+        let root = root_node(&context, scratch);
+        let bounds = root.cell;
         build_subtree(&context, root, 0, scratch, layout)?;
 
         let max_depth = layout.finish_into(&mut tree.nodes, &mut tree.leaves, &mut tree.ids);
@@ -312,8 +312,9 @@ impl KdTreeBuilder {
     }
 }
 
-/// The root: every triangle with its vertex box, the only references on `scratch`'s stack.
-fn root_node(context: &Context<'_>, cell: Aabb, scratch: &mut Scratch) -> BoxNode {
+/// The root: every triangle with its vertex box, the only references on `scratch`'s stack; its
+/// cell is the boxes' union, the mesh's bounds (those of the vertices its triangles use).
+fn root_node(context: &Context<'_>, scratch: &mut Scratch) -> BoxNode {
     let mut union = Bounds::EMPTY;
     let refs = &mut scratch.refs;
     refs.clear();
@@ -325,7 +326,7 @@ fn root_node(context: &Context<'_>, cell: Aabb, scratch: &mut Scratch) -> BoxNod
     scratch.top = refs.len();
     BoxNode {
         refs: 0..scratch.top,
-        cell,
+        cell: union.aabb(),
         union: union.aabb(),
     }
 }
