@@ -646,7 +646,7 @@ fn split_boxes_on<const AXIS: usize>(
     for &i in straddling.iter() {
         let id = refs.ids[i];
         let tri = &context.triangles[id as usize];
-        let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
+        let [below_part, above_part] = split_clipped_bounds::<AXIS>(tri, &node.cell, p);
         if let Some(part) = below_part {
             refs.push(id, part);
             below_union = below_union.union(part);
