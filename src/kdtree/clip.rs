@@ -202,22 +202,23 @@ impl Clip {
         let mut faces = self.faces;
         // The next face, and whether it is the last.
         let mut next = || {
-            let face = self.face(cell, faces.trailing_zeros());
+            let face = faces.trailing_zeros();
             faces &= faces - 1;
             (face, faces == 0)
         };
+        let m = self.margin;
         let (face, last) = next();
-        let quad = cut_by::<3, 4>(triangle, face)?;
+        let quad = cut_by::<3, 4>(triangle, face, cell, m)?;
         if last {
             return Ok(split_spans::<AXIS, 4>(&quad, planes));
         }
         let (face, last) = next();
-        let pentagon = cut_by::<4, 5>(&quad, face)?;
+        let pentagon = cut_by::<4, 5>(&quad, face, cell, m)?;
         if last {
             return Ok(split_spans::<AXIS, 5>(&pentagon, planes));
         }
         let (face, last) = next();
-        let hexagon = cut_by::<5, 6>(&pentagon, face)?;
+        let hexagon = cut_by::<5, 6>(&pentagon, face, cell, m)?;
         if last {
             return Ok(split_spans::<AXIS, 6>(&hexagon, planes));
         }
@@ -489,16 +490,26 @@ fn cut<const AXIS: usize, const N: usize, const M: usize>(
     }))
 }
 
-/// [`cut`] by `face`: its axis, plane, and whether the side above the plane is kept.
+/// [`cut`] by face `face` (as in [`Clip::faces`]) of `cell` grown by `margin`: one branch to
+/// the face, the axis and side then constants.
 #[inline(always)]
 fn cut_by<const N: usize, const M: usize>(
     v: &[DVec3; N],
-    (axis, plane, keep_above): (usize, f64, bool),
+    face: u32,
+    cell: &Aabb,
+    margin: f64,
 ) -> Result<[DVec3; M], Cut> {
-    match axis {
-        0 => cut::<0, N, M>(v, plane, keep_above),
-        1 => cut::<1, N, M>(v, plane, keep_above),
-        _ => cut::<2, N, M>(v, plane, keep_above),
+    let (min, max) = (
+        DVec3::from(cell.min) - margin,
+        DVec3::from(cell.max) + margin,
+    );
+    match face {
+        0 => cut::<0, N, M>(v, min.x, true),
+        1 => cut::<0, N, M>(v, max.x, false),
+        2 => cut::<1, N, M>(v, min.y, true),
+        3 => cut::<1, N, M>(v, max.y, false),
+        4 => cut::<2, N, M>(v, min.z, true),
+        _ => cut::<2, N, M>(v, max.z, false),
     }
 }
 
@@ -586,16 +597,33 @@ fn split_spans<const AXIS: usize, const N: usize>(v: &[DVec3; N], planes: [f64; 
         });
     spans.min[AXIS] = Parts::new(lowest, above_plane);
     spans.max[AXIS] = Parts::new(below_plane, highest);
-    // A triangle's runs have no vertices but their ends.
+    // Vertices inside the runs (a triangle's have none): the first without a branch (else the
+    // run's first vertex once more), the others, past a quad, in turn.
     if N > 3 {
-        for (side, run) in [below, above].iter().enumerate() {
-            let mut inner = kept[side] & !(1 << run.first | 1 << run.last);
-            while inner != 0 {
-                let p = v[inner.trailing_zeros() as usize];
-                inner &= inner - 1;
-                for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
-                    spans.min[c][side] = spans.min[c][side].min(p[c]);
-                    spans.max[c][side] = spans.max[c][side].max(p[c]);
+        let inner = [(below, kept[0]), (above, kept[1])]
+            .map(|(run, kept)| kept & !(1 << run.first | 1 << run.last));
+        let next = |inner: u32, first: usize| {
+            if inner == 0 {
+                first
+            } else {
+                inner.trailing_zeros() as usize
+            }
+        };
+        let mid = (next(inner[0], below.first), next(inner[1], above.first));
+        for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
+            spans.min[c] = spans.min[c].min(at(mid, c));
+            spans.max[c] = spans.max[c].max(at(mid, c));
+        }
+        if N > 4 {
+            for (side, mut inner) in inner.into_iter().enumerate() {
+                inner &= inner.wrapping_sub(1);
+                while inner != 0 {
+                    let p = v[inner.trailing_zeros() as usize];
+                    inner &= inner - 1;
+                    for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
+                        spans.min[c][side] = spans.min[c][side].min(p[c]);
+                        spans.max[c][side] = spans.max[c][side].max(p[c]);
+                    }
                 }
             }
         }
