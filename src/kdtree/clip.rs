@@ -80,14 +80,16 @@ pub(super) fn split_clipped_bounds<const AXIS: usize>(
             let vertex_box = Aabb::new(clip.lo.into(), clip.hi.into());
             [below, above].map(|half| fallback(&vertex_box, &half))
         }
+        // Empty (`to_cell` takes `General` to the general clip).
         Err(_) => [None, None],
     }
 }
 
 /// A triangle being clipped to a cell grown by the margin, in f64.
 struct Clip {
-    /// The triangle's own box.
+    /// The least corner of the triangle's own box.
     lo: Vec3A,
+    /// The greatest corner of the triangle's own box.
     hi: Vec3A,
     /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
     margin: f64,
@@ -134,6 +136,7 @@ impl From<[Span; 2]> for SplitSpans {
 }
 
 impl Clip {
+    /// `tri` about to be clipped to `cell`.
     fn new(tri: &Triangle, cell: &Aabb) -> Self {
         let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(Vec3A::from);
         let (lo, hi) = (v0.min(v1).min(v2), v0.max(v1).max(v2));
@@ -296,8 +299,9 @@ impl Clip {
             ]
             .map(round_down),
         ) * Vec4::new(1.0, 1.0, -1.0, -1.0);
-        // Within the triangle's box ∩ the cell, that wins ties as the f32::max and min (which
-        // ignore a NaN) of the boxes' rounding compile to on x86 (no NaN reaches here).
+        // Clamped to the triangle's box ∩ the half, which takes over only where strictly
+        // tighter: on a tie the rounded value stays, and with it its sign of zero (as in
+        // `f32::max(rounded, bound)` and `min` on x86, which this replaces; no NaN reaches here).
         let exact_min = self.lo.max(cell.min.into());
         let exact_max = self.hi.min(cell.max.into());
         let mins = Vec4::new(exact_min[u], exact_min[u], exact_min[w], exact_min[w]).max(mins);
@@ -370,11 +374,13 @@ fn kept(d: &[f64]) -> u32 {
 /// Where the vertices of a polygon kept by a clip lie, when they are one run of neighbours.
 #[derive(Clone, Copy)]
 struct Run {
-    /// The first vertex of the run and the one before it (not kept).
+    /// The first vertex of the run.
     first: usize,
+    /// The vertex before the first (not kept).
     before: usize,
-    /// The last vertex of the run and the one after it (not kept).
+    /// The last vertex of the run.
     last: usize,
+    /// The vertex after the last (not kept).
     after: usize,
 }
 
@@ -454,10 +460,10 @@ fn crossing<const AXIS: usize>(a: DVec3, b: DVec3, da: f64, db: f64, plane: f64)
     p
 }
 
-/// Polygon `v` (any orientation; a vertex may be repeated) cut by the half-space
-/// `p[AXIS] >= plane` (`keep_above`) or `<= plane`, as one Sutherland–Hodgman step of
-/// [`clip_polygon`] would: the same points, from the same edges in the same direction, in a
-/// rotated order, with one vertex repeated as needed to make `M = N + 1`.
+/// Polygon `v` (in either orientation; a vertex may stand twice in a row) cut by the
+/// half-space `p[AXIS] >= plane` (`keep_above`) or `<= plane` as one Sutherland–Hodgman step
+/// ([`clip_polygon`]) cuts it: the same points, from the same edges in the same direction, in
+/// a rotated order, in `M = N + 1` slots, a vertex repeated where fewer are left.
 ///
 /// [`Cut::Empty`] if nothing is left, [`Cut::General`] if the kept vertices are not one run.
 #[inline(always)]
