@@ -624,7 +624,7 @@ fn split_boxes_on<const AXIS: usize>(
     }
     for &id in straddling.iter() {
         let tri = &context.triangles[id as usize];
-        let [below_part, above_part] = split_clipped_bounds(tri, &node.cell, axis, p);
+        let [below_part, above_part] = split_clipped_bounds::<AXIS>(tri, &node.cell, p);
         if let Some(part) = below_part {
             let r = Ref::new(id, &part);
             refs[below_end] = r;

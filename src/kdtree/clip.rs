@@ -8,6 +8,17 @@
 //! (rounding is monotone and `min` is an f64, so the rounded `min - margin` is at most `min`),
 //! and likewise at `max`; the split step then sees the very same vertices.
 //!
+//! The work is arranged to be cheap, with few branches on the data, in the common cases, with
+//! the same f64 operations as that plain clip, and so the same boxes, bit for bit. The vertices a
+//! clip keeps of a convex polygon are one run of neighbours: the clip is the two points where
+//! the edges leaving and entering the run cross the plane, and the run, found from the bits of
+//! the kept vertices ([`Run`]). The polygon lives in an array of a fixed size, one longer at each
+//! face, a vertex repeated where a clip left fewer: a repeated vertex adds no point (its edge to
+//! itself crosses nothing). The two parts of the split are computed side by side, in the lanes
+//! of [`Parts`], and rounded four values at a time. A polygon whose kept vertices are not one
+//! run (f64 rounding can make it slightly non-convex) or that crosses more than three faces
+//! (rare) takes the plain clip, [`Clip::to_cell_in_general`].
+//!
 //! The clip runs in f64 against the cell grown by a tiny relative margin, and the result is
 //! rounded outward to f32 and then clamped to the cell (clamping is exact). The f32 box therefore
 //! contains the exact part of the triangle inside the cell and lies inside the cell: it may be a
@@ -22,6 +33,7 @@
 //! keeps `margin · s` below one f32 ulp of the magnitude for slopes up to 2²³ (a 2⁻⁴⁰ margin once
 //! loosened a Sponza leaf by 3·10⁻⁵ along a wall edge of slope 2·10⁶).
 
+use glam::{DVec2, Vec3A, Vec4, Vec4Swizzles};
 use kdbeam_kernels::{Aabb, DVec3, Triangle, Vec3};
 
 /// Vertices a clipped polygon may reach: a convex polygon gains at most one vertex per plane
@@ -36,34 +48,15 @@ const MAX_POLYGON: usize = 12;
 const MARGIN: f64 = 1.0 / (1u64 << 46) as f64;
 
 /// The boxes of `tri ∩ below` and `tri ∩ above`, where `below` and `above` are the halves of
-/// `cell` split at `position` on `axis` (`cell.min[axis] <= position <= cell.max[axis]`): each
-/// conservative in f32 and inside its half, `None` when the triangle does not meet it.
+/// `cell` split at `position` on axis `AXIS` (`cell.min[AXIS] <= position <= cell.max[AXIS]`):
+/// each conservative in f32 and inside its half, `None` when the triangle does not meet it.
 ///
 /// The triangle is clipped once to the (grown) cell and the polygon then once more to each
 /// side of the (grown) plane: the same half-spaces as clipping to each half, in another order.
 /// A triangle touching a half only on its boundary gives a flat box on that boundary.
-/// Degenerate triangles (segments, points) clip like any other polygon.
-///
-/// # Panics
-///
-/// If `axis` is not 0, 1 or 2.
-pub(super) fn split_clipped_bounds(
-    tri: &Triangle,
-    cell: &Aabb,
-    axis: usize,
-    position: f32,
-) -> [Option<Aabb>; 2] {
-    // The axis as a constant, so that coordinates along it are picked without a branch.
-    match axis {
-        0 => split_clipped_bounds_on::<0>(tri, cell, position),
-        1 => split_clipped_bounds_on::<1>(tri, cell, position),
-        2 => split_clipped_bounds_on::<2>(tri, cell, position),
-        _ => panic!("split axis {axis} is not 0, 1 or 2"),
-    }
-}
-
-/// [`split_clipped_bounds`] on axis `AXIS`.
-fn split_clipped_bounds_on<const AXIS: usize>(
+/// Degenerate triangles (segments, points) clip like any other polygon. Coordinates must be
+/// finite (a [`Mesh`](crate::scene::Mesh)'s are).
+pub(super) fn split_clipped_bounds<const AXIS: usize>(
     tri: &Triangle,
     cell: &Aabb,
     position: f32,
@@ -72,35 +65,40 @@ fn split_clipped_bounds_on<const AXIS: usize>(
     below.max[AXIS] = position;
     above.min[AXIS] = position;
     let clip = Clip::new(tri, cell);
-    let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
     let plane = f64::from(position);
     let planes = [plane + clip.margin, plane - clip.margin];
-    let mut buffers;
-    let spans = if clip.inside(cell) {
+    let triangle = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
+    let spans = if clip.faces == 0 {
         // The clip to the cell would cut nothing off: the same steps on the triangle itself.
-        split_spans::<AXIS>(&[v0, v1, v2, v0], planes)
+        Ok(split_spans::<AXIS, 3>(&triangle, planes))
     } else {
-        buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
-        match clip.to_cell(&[v0, v1, v2, v0], cell, &mut buffers) {
-            Ok(polygon) => split_spans::<AXIS>(polygon, planes),
-            Err(Cut::Empty) => return [None, None],
-            Err(Cut::Overflow) => {
-                return [below, above].map(|half| fallback(&clip.vertex_box, &half));
-            }
-        }
+        clip.to_cell::<AXIS>(&triangle, cell, planes)
     };
-    [
-        spans[0].and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
-        spans[1].and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
-    ]
+    match spans {
+        Ok(spans) => clip.rounded::<AXIS>(&spans, cell, position),
+        Err(Cut::Overflow) => {
+            let vertex_box = Aabb::new(clip.lo.into(), clip.hi.into());
+            [below, above].map(|half| fallback(&vertex_box, &half))
+        }
+        // Empty (`to_cell` takes `General` to the general clip).
+        Err(_) => [None, None],
+    }
 }
 
 /// A triangle being clipped to a cell grown by the margin, in f64.
 struct Clip {
-    /// The triangle's own box.
-    vertex_box: Aabb,
+    /// The least corner of the triangle's own box.
+    lo: Vec3A,
+    /// The greatest corner of the triangle's own box.
+    hi: Vec3A,
     /// The margin: [`MARGIN`] times the largest coordinate of the triangle and the cell.
     margin: f64,
+    /// The cell's faces the vertex box crosses, the others being skipped without looking at
+    /// the triangle (clipped points lie in the vertex box but for f64 rounding, far smaller
+    /// than the margin): bit `2·a` for the face at `min[a]`, bit `2·a + 1` for the one at
+    /// `max[a]`, in the order they are clipped against. 0 when the triangle's box lies inside
+    /// the cell, so that clipping to the grown cell cuts nothing off.
+    faces: u32,
 }
 
 /// Why clipping to the cell left no polygon.
@@ -109,197 +107,576 @@ enum Cut {
     Empty,
     /// Rounding made the polygon non-convex (it outgrew [`MAX_POLYGON`]).
     Overflow,
+    /// Not for [`Clip::to_cell_in_runs`]: the kept vertices are not one run, or there are
+    /// more than three faces; [`Clip::to_cell_in_general`] must clip.
+    General,
 }
 
-/// A convex polygon of at most [`MAX_POLYGON`] vertices being clipped, closed (its first
-/// vertex repeated after the last, so that its edges are the pairs of neighbours), with a
-/// spare buffer for the next clip to write to.
-struct Polygon<'a> {
-    verts: &'a mut [DVec3; MAX_POLYGON + 1],
-    spare: &'a mut [DVec3; MAX_POLYGON + 1],
-    /// The number of vertices, not counting the repeated one.
-    len: usize,
+/// The span `(min, max)` of part of a polygon; `(+∞, −∞)` when there is nothing in it.
+type Span = (DVec3, DVec3);
+
+/// A value for each part of the split: below (`x`), above (`y`).
+type Parts = DVec2;
+
+/// The spans of the parts of a polygon below and above the split plane, per coordinate; `+∞`
+/// and `−∞` for a part with nothing in it.
+struct SplitSpans {
+    min: [Parts; 3],
+    max: [Parts; 3],
+}
+
+impl From<[Span; 2]> for SplitSpans {
+    fn from([below, above]: [Span; 2]) -> Self {
+        let parts = |b: DVec3, a: DVec3| [0, 1, 2].map(|c| Parts::new(b[c], a[c]));
+        SplitSpans {
+            min: parts(below.0, above.0),
+            max: parts(below.1, above.1),
+        }
+    }
 }
 
 impl Clip {
+    /// `tri` about to be clipped to `cell`.
     fn new(tri: &Triangle, cell: &Aabb) -> Self {
-        let vertex_box = vertex_box(tri);
+        let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(Vec3A::from);
+        let (lo, hi) = (v0.min(v1).min(v2), v0.max(v1).max(v2));
+        let (cell_lo, cell_hi) = (Vec3A::from(cell.min), Vec3A::from(cell.max));
         // The largest |coordinate| of the vertices is that of their box's corners (exact).
-        let magnitude = [vertex_box.min, vertex_box.max, cell.min, cell.max]
-            .iter()
-            .fold(0.0f32, |m, v| m.max(v.abs().max_element()));
+        let magnitude = (lo.abs().max(hi.abs()))
+            .max(cell_lo.abs().max(cell_hi.abs()))
+            .max_element();
         let margin = f64::from(magnitude) * MARGIN;
-        Clip { vertex_box, margin }
+        // Bit `a` of a mask to bit `2·a`.
+        const SPREAD: [u32; 8] = [0b0, 0b1, 0b100, 0b101, 0b10000, 0b10001, 0b10100, 0b10101];
+        let spread = |bits: u32| SPREAD[bits as usize & 7];
+        let faces = spread(lo.cmplt(cell_lo).bitmask()) | spread(hi.cmpgt(cell_hi).bitmask()) << 1;
+        Clip {
+            lo,
+            hi,
+            margin,
+            faces,
+        }
     }
 
-    /// True when the triangle's box lies inside `cell`, so that clipping to the grown cell
-    /// cuts nothing off.
-    fn inside(&self, cell: &Aabb) -> bool {
-        let vb = &self.vertex_box;
-        cell.min.cmple(vb.min).all() && vb.max.cmple(cell.max).all()
+    /// The plane of face `face` (as in [`Clip::faces`]) of the grown `cell`: its axis, position,
+    /// and whether the side above it is kept.
+    fn face(&self, cell: &Aabb, face: u32) -> (usize, f64, bool) {
+        let axis = (face / 2) as usize;
+        if face & 1 == 0 {
+            (axis, f64::from(cell.min[axis]) - self.margin, true)
+        } else {
+            (axis, f64::from(cell.max[axis]) + self.margin, false)
+        }
     }
 
-    /// The closed `triangle` clipped to the grown `cell`, in one of `buffers`, closed.
-    ///
-    /// A face the triangle's box does not cross is skipped without looking at the polygon:
-    /// clipped points lie in that box but for f64 rounding, far smaller than the margin.
-    fn to_cell<'a>(
+    /// The spans of `triangle` clipped to the grown `cell`, split by `planes` as in
+    /// [`split_spans`].
+    #[inline(always)]
+    fn to_cell<const AXIS: usize>(
         &self,
-        triangle: &[DVec3; 4],
+        triangle: &[DVec3; 3],
         cell: &Aabb,
-        buffers: &'a mut [[DVec3; MAX_POLYGON + 1]; 2],
-    ) -> Result<&'a [DVec3], Cut> {
-        let [verts, spare] = buffers.each_mut();
-        verts[..4].copy_from_slice(triangle);
-        let mut poly = Polygon {
-            verts,
-            spare,
-            len: 3,
+        planes: [f64; 2],
+    ) -> Result<SplitSpans, Cut> {
+        // Past three faces (rare), the runs would only find out late that they cannot go on.
+        let without_lowest = |faces: u32| faces & faces.wrapping_sub(1);
+        let spans = if without_lowest(without_lowest(without_lowest(self.faces))) == 0 {
+            self.to_cell_in_runs::<AXIS>(triangle, cell, planes)
+        } else {
+            Err(Cut::General)
         };
-        self.to_faces::<0>(&mut poly, cell)?;
-        self.to_faces::<1>(&mut poly, cell)?;
-        self.to_faces::<2>(&mut poly, cell)?;
-        let Polygon { verts, len, .. } = poly;
-        Ok(&verts[..=len])
+        match spans {
+            Err(Cut::General) => self.to_cell_in_general::<AXIS>(triangle, cell, planes),
+            spans => spans,
+        }
     }
 
-    /// Clips `poly` to the grown cell's faces across `AXIS` that the triangle's box crosses.
-    fn to_faces<const AXIS: usize>(&self, poly: &mut Polygon<'_>, cell: &Aabb) -> Result<(), Cut> {
-        if self.vertex_box.min[AXIS] < cell.min[AXIS] {
-            poly.clip::<AXIS>(f64::from(cell.min[AXIS]) - self.margin, true)?;
-        }
-        if self.vertex_box.max[AXIS] > cell.max[AXIS] {
-            poly.clip::<AXIS>(f64::from(cell.max[AXIS]) + self.margin, false)?;
-        }
-        Ok(())
-    }
-
-    /// The f32 box of `[pmin, pmax]` rounded outward by the margin, within the triangle's own
-    /// box and `cell`; `None` if empty.
-    fn rounded(&self, pmin: DVec3, pmax: DVec3, cell: &Aabb) -> Option<Aabb> {
-        let exact = self.vertex_box.intersection(*cell);
+    /// [`Clip::to_cell`] while the kept vertices are one run at every face, through at most
+    /// three faces; else [`Cut::General`].
+    ///
+    /// Each face cuts a polygon of a fixed number of vertices, some of them repeated, into
+    /// one more: the same points as one Sutherland–Hodgman step ([`cut`]).
+    fn to_cell_in_runs<const AXIS: usize>(
+        &self,
+        triangle: &[DVec3; 3],
+        cell: &Aabb,
+        planes: [f64; 2],
+    ) -> Result<SplitSpans, Cut> {
+        let mut faces = self.faces;
+        // The next face, and whether it is the last.
+        let mut next = || {
+            let face = faces.trailing_zeros();
+            faces &= faces - 1;
+            (face, faces == 0)
+        };
         let m = self.margin;
-        let lo = [pmin.x - m, pmin.y - m, pmin.z - m].map(round_down);
-        let hi = [pmax.x + m, pmax.y + m, pmax.z + m].map(round_up);
-        // `f32::max` and `min`, which ignore a NaN, not glam's.
-        let b = Aabb::new(
-            Vec3::new(
-                lo[0].max(exact.min.x),
-                lo[1].max(exact.min.y),
-                lo[2].max(exact.min.z),
-            ),
-            Vec3::new(
-                hi[0].min(exact.max.x),
-                hi[1].min(exact.max.y),
-                hi[2].min(exact.max.z),
-            ),
-        );
-        (!b.is_empty()).then_some(b)
+        let (face, last) = next();
+        let quad = cut_by::<3, 4>(triangle, face, cell, m)?;
+        if last {
+            return Ok(split_spans::<AXIS, 4>(&quad, planes));
+        }
+        let (face, last) = next();
+        let pentagon = cut_by::<4, 5>(&quad, face, cell, m)?;
+        if last {
+            return Ok(split_spans::<AXIS, 5>(&pentagon, planes));
+        }
+        let (face, last) = next();
+        let hexagon = cut_by::<5, 6>(&pentagon, face, cell, m)?;
+        if last {
+            return Ok(split_spans::<AXIS, 6>(&hexagon, planes));
+        }
+        Err(Cut::General)
+    }
+
+    /// [`Clip::to_cell`] for any polygon: Sutherland–Hodgman steps ([`clip_polygon`]) on a
+    /// polygon of up to [`MAX_POLYGON`] vertices. Rare, so kept out of line.
+    #[inline(never)]
+    fn to_cell_in_general<const AXIS: usize>(
+        &self,
+        triangle: &[DVec3; 3],
+        cell: &Aabb,
+        planes: [f64; 2],
+    ) -> Result<SplitSpans, Cut> {
+        // The polygon in one buffer, the next step writing to the other.
+        let mut buffers = [[DVec3::ZERO; MAX_POLYGON]; 2];
+        buffers[0][..3].copy_from_slice(triangle);
+        let (mut len, mut current) = (3, 0);
+        let mut faces = self.faces;
+        while faces != 0 {
+            let (axis, plane, keep_above) = self.face(cell, faces.trailing_zeros());
+            faces &= faces - 1;
+            let [first, second] = &mut buffers;
+            let (v, out) = if current == 0 {
+                (&first[..len], second)
+            } else {
+                (&second[..len], first)
+            };
+            let cut = match axis {
+                0 => clip_polygon::<0>(v, out, plane, keep_above),
+                1 => clip_polygon::<1>(v, out, plane, keep_above),
+                _ => clip_polygon::<2>(v, out, plane, keep_above),
+            }?;
+            if let Some(cut) = cut {
+                (len, current) = (cut, 1 - current);
+            }
+        }
+        let v = &buffers[current][..len];
+        let mut d = [[0.0; MAX_POLYGON]; 2];
+        for (i, &p) in v.iter().enumerate() {
+            d[0][i] = inside::<AXIS>(p, planes[0], false);
+            d[1][i] = inside::<AXIS>(p, planes[1], true);
+        }
+        Ok(SplitSpans::from([
+            part_span::<AXIS>(v, &d[0][..len], planes[0]),
+            part_span::<AXIS>(v, &d[1][..len], planes[1]),
+        ]))
+    }
+
+    /// The f32 boxes of `spans` rounded outward by the margin, each within the triangle's own
+    /// box and its half of the cell (split at `position` on `AXIS`); `None` if empty.
+    #[inline(always)]
+    fn rounded<const AXIS: usize>(
+        &self,
+        spans: &SplitSpans,
+        cell: &Aabb,
+        position: f32,
+    ) -> [Option<Aabb>; 2] {
+        let m = self.margin;
+        let (u, w) = ((AXIS + 1) % 3, (AXIS + 2) % 3);
+        let (lo, hi) = (&spans.min, &spans.max);
+        // Four lanes at a time, so that the rounding is vectorized: the minima off the axis,
+        // the maxima, and along the axis the minima and (negated, to round down) the maxima.
+        let down = |p: [f64; 4]| Vec4::from_array(p.map(|p| round_down(p - m)));
+        let up = |p: [f64; 4]| Vec4::from_array(p.map(|p| round_up(p + m)));
+        let mins = down([lo[u].x, lo[u].y, lo[w].x, lo[w].y]);
+        let maxs = up([hi[u].x, hi[u].y, hi[w].x, hi[w].y]);
+        let axial = Vec4::from_array(
+            [
+                lo[AXIS].x - m,
+                lo[AXIS].y - m,
+                -(hi[AXIS].x + m),
+                -(hi[AXIS].y + m),
+            ]
+            .map(round_down),
+        ) * Vec4::new(1.0, 1.0, -1.0, -1.0);
+        // Clamped to the triangle's box ∩ the half, which takes over only where strictly
+        // tighter: on a tie the rounded value stays, and with it its sign of zero (as in
+        // `f32::max(rounded, bound)` and `min` on x86, which this replaces; no NaN reaches here).
+        let exact_min = self.lo.max(cell.min.into());
+        let exact_max = self.hi.min(cell.max.into());
+        let mins = Vec4::new(exact_min[u], exact_min[u], exact_min[w], exact_min[w]).max(mins);
+        let maxs = Vec4::new(exact_max[u], exact_max[u], exact_max[w], exact_max[w]).min(maxs);
+        let (lo_axial, hi_axial) = (self.lo[AXIS], self.hi[AXIS]);
+        let axial = Vec4::new(
+            exact_min[AXIS],
+            if lo_axial > position {
+                lo_axial
+            } else {
+                position
+            },
+            f32::NEG_INFINITY,
+            f32::NEG_INFINITY,
+        )
+        .max(axial);
+        let axial = Vec4::new(
+            f32::INFINITY,
+            f32::INFINITY,
+            if hi_axial < position {
+                hi_axial
+            } else {
+                position
+            },
+            exact_max[AXIS],
+        )
+        .min(axial);
+        // Bits 0 and 2 (below) and 1 and 3 (above) off the axis, 0 and 1 along it.
+        let empty = mins.cmpgt(maxs).bitmask() | axial.cmpgt(axial.zwxy()).bitmask() & 0b11;
+        let corner = |along: f32, off: [f32; 2]| {
+            let mut p = Vec3::ZERO;
+            (p[AXIS], p[u], p[w]) = (along, off[0], off[1]);
+            p
+        };
+        [
+            (empty & 0b0101 == 0).then(|| {
+                Aabb::new(
+                    corner(axial.x, [mins.x, mins.z]),
+                    corner(axial.z, [maxs.x, maxs.z]),
+                )
+            }),
+            (empty & 0b1010 == 0).then(|| {
+                Aabb::new(
+                    corner(axial.y, [mins.y, mins.w]),
+                    corner(axial.w, [maxs.y, maxs.w]),
+                )
+            }),
+        ]
     }
 }
 
-impl Polygon<'_> {
-    /// Clips to the half-space `p[AXIS] >= plane` (`keep_above`) or `<= plane`; a no-op when
-    /// every vertex is inside.
-    fn clip<const AXIS: usize>(&mut self, plane: f64, keep_above: bool) -> Result<(), Cut> {
-        let inside = |p: DVec3| {
-            if keep_above {
-                p[AXIS] - plane
+/// The distance of `p` inside the half-space `p[AXIS] >= plane` (`keep_above`) or `<= plane`.
+#[inline(always)]
+fn inside<const AXIS: usize>(p: DVec3, plane: f64, keep_above: bool) -> f64 {
+    if keep_above {
+        p[AXIS] - plane
+    } else {
+        plane - p[AXIS]
+    }
+}
+
+/// The bits of the vertices kept by a clip: those at a distance `d >= 0` inside it.
+#[inline(always)]
+fn kept(d: &[f64]) -> u32 {
+    d.iter()
+        .enumerate()
+        .fold(0, |bits, (i, &d)| bits | u32::from(d >= 0.0) << i)
+}
+
+/// Where the vertices of a polygon kept by a clip lie, when they are one run of neighbours.
+#[derive(Clone, Copy)]
+struct Run {
+    /// The first vertex of the run.
+    first: usize,
+    /// The vertex before the first (not kept).
+    before: usize,
+    /// The last vertex of the run.
+    last: usize,
+    /// The vertex after the last (not kept).
+    after: usize,
+}
+
+impl Run {
+    /// The run of the `n`-gon's vertices in `kept` (bit `i` for vertex `i`), or `None` if
+    /// they are none, all, or more than one run (which only rounding in a clip can make).
+    #[inline(always)]
+    const fn of(kept: u32, n: usize) -> Option<Run> {
+        let all = (1 << n) - 1;
+        // Bit `i`: vertex `i − 1`, and `i + 1`, is kept.
+        let previous = (kept << 1 | kept >> (n - 1)) & all;
+        let next = (kept >> 1 | kept << (n - 1)) & all;
+        let (starts, ends) = (kept & !previous, kept & !next);
+        if starts == 0 || starts & (starts - 1) != 0 {
+            return None;
+        }
+        let (first, last) = (
+            starts.trailing_zeros() as usize,
+            ends.trailing_zeros() as usize,
+        );
+        Some(Run {
+            first,
+            before: if first == 0 { n - 1 } else { first - 1 },
+            last,
+            after: if last == n - 1 { 0 } else { last + 1 },
+        })
+    }
+
+    /// [`Run::of`] an `N`-gon, looked up.
+    #[inline(always)]
+    fn of_polygon<const N: usize>(kept: u32) -> Option<Run> {
+        /// [`Run::of`] every `kept` of an `N`-gon (`SIZE = 2^N`).
+        const fn table<const N: usize, const SIZE: usize>() -> [Option<Run>; SIZE] {
+            let mut runs = [None; SIZE];
+            let mut kept = 0;
+            while kept < SIZE {
+                runs[kept] = Run::of(kept as u32, N);
+                kept += 1;
+            }
+            runs
+        }
+        const RUNS: [&[Option<Run>]; 7] = [
+            &[],
+            &[],
+            &[],
+            &table::<3, 8>(),
+            &table::<4, 16>(),
+            &table::<5, 32>(),
+            &table::<6, 64>(),
+        ];
+        RUNS[N][kept as usize & ((1 << N) - 1)]
+    }
+
+    /// Where the edges leaving and entering the run cross the plane of the clip (at
+    /// distances `d` inside it, on `AXIS`).
+    #[inline(always)]
+    fn crossings<const AXIS: usize>(&self, v: &[DVec3], d: &[f64], plane: f64) -> [DVec3; 2] {
+        let Run {
+            first,
+            before,
+            last,
+            after,
+        } = *self;
+        [
+            crossing::<AXIS>(v[last], v[after], d[last], d[after], plane),
+            crossing::<AXIS>(v[before], v[first], d[before], d[first], plane),
+        ]
+    }
+}
+
+/// Where edge `a → b`, at distances `da` and `db` inside a clip plane (of opposite signs),
+/// crosses it: a Sutherland–Hodgman point, with its `AXIS` coordinate set to `plane` exactly.
+#[inline(always)]
+fn crossing<const AXIS: usize>(a: DVec3, b: DVec3, da: f64, db: f64, plane: f64) -> DVec3 {
+    let mut p = a + (b - a) * (da / (da - db));
+    p[AXIS] = plane;
+    p
+}
+
+/// Polygon `v` (in either orientation; a vertex may stand twice in a row) cut by the
+/// half-space `p[AXIS] >= plane` (`keep_above`) or `<= plane` as one Sutherland–Hodgman step
+/// ([`clip_polygon`]) cuts it: the same points, from the same edges in the same direction, in
+/// a rotated order, in `M = N + 1` slots, a vertex repeated where fewer are left.
+///
+/// [`Cut::Empty`] if nothing is left, [`Cut::General`] if the kept vertices are not one run.
+#[inline(always)]
+fn cut<const AXIS: usize, const N: usize, const M: usize>(
+    v: &[DVec3; N],
+    plane: f64,
+    keep_above: bool,
+) -> Result<[DVec3; M], Cut> {
+    let d = v.map(|p| inside::<AXIS>(p, plane, keep_above));
+    let kept = kept(&d);
+    if kept == (1 << N) - 1 {
+        return Ok(core::array::from_fn(|k| v[k.min(N - 1)]));
+    }
+    let run =
+        Run::of_polygon::<N>(kept).ok_or(if kept == 0 { Cut::Empty } else { Cut::General })?;
+    let [out, back] = run.crossings::<AXIS>(v, &d, plane);
+    // The run (its last vertex repeated), then the crossings.
+    let len = if run.last >= run.first {
+        run.last - run.first
+    } else {
+        run.last + N - run.first
+    };
+    Ok(core::array::from_fn(|k| match k {
+        _ if k == M - 2 => out,
+        _ if k == M - 1 => back,
+        _ => {
+            let i = run.first + k.min(len);
+            v[if i < N { i } else { i - N }]
+        }
+    }))
+}
+
+/// [`cut`] by face `face` (as in [`Clip::faces`]) of `cell` grown by `margin`: one branch to
+/// the face, the axis and side then constants.
+#[inline(always)]
+fn cut_by<const N: usize, const M: usize>(
+    v: &[DVec3; N],
+    face: u32,
+    cell: &Aabb,
+    margin: f64,
+) -> Result<[DVec3; M], Cut> {
+    let (min, max) = (
+        DVec3::from(cell.min) - margin,
+        DVec3::from(cell.max) + margin,
+    );
+    match face {
+        0 => cut::<0, N, M>(v, min.x, true),
+        1 => cut::<0, N, M>(v, max.x, false),
+        2 => cut::<1, N, M>(v, min.y, true),
+        3 => cut::<1, N, M>(v, max.y, false),
+        4 => cut::<2, N, M>(v, min.z, true),
+        _ => cut::<2, N, M>(v, max.z, false),
+    }
+}
+
+/// One Sutherland–Hodgman step: polygon `v` cut by the half-space `p[AXIS] >= plane`
+/// (`keep_above`) or `<= plane`, written to `out`. Returns the number of vertices left, or
+/// `None` when every vertex is inside (the polygon is left as it is, not copied).
+fn clip_polygon<const AXIS: usize>(
+    v: &[DVec3],
+    out: &mut [DVec3; MAX_POLYGON],
+    plane: f64,
+    keep_above: bool,
+) -> Result<Option<usize>, Cut> {
+    let d = |i: usize| inside::<AXIS>(v[i], plane, keep_above);
+    if (0..v.len()).all(|i| d(i) >= 0.0) {
+        return Ok(None);
+    }
+    let mut len = 0;
+    for i in 0..v.len() {
+        let j = if i + 1 == v.len() { 0 } else { i + 1 };
+        let (di, dj) = (d(i), d(j));
+        if di >= 0.0 {
+            *out.get_mut(len).ok_or(Cut::Overflow)? = v[i];
+            len += 1;
+        }
+        if (di >= 0.0) != (dj >= 0.0) {
+            *out.get_mut(len).ok_or(Cut::Overflow)? = crossing::<AXIS>(v[i], v[j], di, dj, plane);
+            len += 1;
+        }
+    }
+    if len == 0 {
+        return Err(Cut::Empty);
+    }
+    Ok(Some(len))
+}
+
+/// The spans of the parts of polygon `v` where `p[AXIS] <= below_plane` and where
+/// `p[AXIS] >= above_plane` (`planes = [below_plane, above_plane]`): two Sutherland–Hodgman
+/// steps of [`clip_polygon`], with their points computed the same way but only their spans
+/// kept.
+///
+/// Both parts at once, lane by lane, when the kept vertices are one run on each side; else
+/// each by [`part_span`]. Always inlined, so that the sizes are constants.
+///
+/// Where points tie, a span may hold a zero of the other sign than the plain clip's (the
+/// values are the same): harmless, as the margin subtracted or added in [`Clip::rounded`]
+/// makes both the same. The margin is 0 only for a triangle and cell all at the origin, whose
+/// vertices are all kept on both sides and taken in the plain clip's order ([`part_span`]).
+#[inline(always)]
+fn split_spans<const AXIS: usize, const N: usize>(v: &[DVec3; N], planes: [f64; 2]) -> SplitSpans {
+    let [below_plane, above_plane] = planes;
+    let below_d = v.map(|p| inside::<AXIS>(p, below_plane, false));
+    let above_d = v.map(|p| inside::<AXIS>(p, above_plane, true));
+    let kept = [kept(&below_d), kept(&above_d)];
+    let (Some(below), Some(above)) = (Run::of_polygon::<N>(kept[0]), Run::of_polygon::<N>(kept[1]))
+    else {
+        return SplitSpans::from([
+            part_span::<AXIS>(v, &below_d, below_plane),
+            part_span::<AXIS>(v, &above_d, above_plane),
+        ]);
+    };
+    let ends = |end: fn(&Run) -> usize| (end(&below), end(&above));
+    let at = |(b, a): (usize, usize), c: usize| Parts::new(v[b][c], v[a][c]);
+    let distance = |(b, a): (usize, usize)| Parts::new(below_d[b], above_d[a]);
+    let (first, before) = (ends(|r| r.first), ends(|r| r.before));
+    let (last, after) = (ends(|r| r.last), ends(|r| r.after));
+    // The crossings of the edges leaving and entering the runs, as in `crossing`.
+    let t_out = distance(last) / (distance(last) - distance(after));
+    let t_back = distance(before) / (distance(before) - distance(first));
+    let mut spans = SplitSpans {
+        min: [Parts::ZERO; 3],
+        max: [Parts::ZERO; 3],
+    };
+    for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
+        let out = at(last, c) + (at(after, c) - at(last, c)) * t_out;
+        let back = at(before, c) + (at(first, c) - at(before, c)) * t_back;
+        spans.min[c] = at(first, c).min(at(last, c)).min(out.min(back));
+        spans.max[c] = at(first, c).max(at(last, c)).max(out.max(back));
+    }
+    // Along the axis: the crossings are on the planes, beyond the kept vertices, and the
+    // lowest vertex is kept below, the highest above.
+    let (lowest, highest) = v
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p[AXIS]), hi.max(p[AXIS]))
+        });
+    spans.min[AXIS] = Parts::new(lowest, above_plane);
+    spans.max[AXIS] = Parts::new(below_plane, highest);
+    // Vertices inside the runs (a triangle's have none): the first without a branch (else the
+    // run's first vertex once more), the others, past a quad, in turn.
+    if N > 3 {
+        let inner = [(below, kept[0]), (above, kept[1])]
+            .map(|(run, kept)| kept & !(1 << run.first | 1 << run.last));
+        let next = |inner: u32, first: usize| {
+            if inner == 0 {
+                first
             } else {
-                plane - p[AXIS]
+                inner.trailing_zeros() as usize
             }
         };
-        if !self.verts[..self.len].iter().all(|&p| inside(p) >= 0.0) {
-            let closed = &self.verts[..=self.len];
-            self.len =
-                clip_polygon::<AXIS>(closed, self.spare, plane, inside).ok_or(Cut::Overflow)?;
-            std::mem::swap(&mut self.verts, &mut self.spare);
+        let mid = (next(inner[0], below.first), next(inner[1], above.first));
+        for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
+            spans.min[c] = spans.min[c].min(at(mid, c));
+            spans.max[c] = spans.max[c].max(at(mid, c));
         }
-        if self.len == 0 {
-            return Err(Cut::Empty);
+        if N > 4 {
+            for (side, mut inner) in inner.into_iter().enumerate() {
+                inner &= inner.wrapping_sub(1);
+                while inner != 0 {
+                    let p = v[inner.trailing_zeros() as usize];
+                    inner &= inner - 1;
+                    for c in [(AXIS + 1) % 3, (AXIS + 2) % 3] {
+                        spans.min[c][side] = spans.min[c][side].min(p[c]);
+                        spans.max[c][side] = spans.max[c][side].max(p[c]);
+                    }
+                }
+            }
         }
-        Ok(())
     }
+    spans
 }
 
-/// The spans of the parts of closed convex polygon `verts` (the first vertex repeated after the
-/// last) where `p[AXIS] <= below_plane` and where
-/// `p[AXIS] >= above_plane` (`planes = [below_plane, above_plane]`): two Sutherland–Hodgman
-/// steps of [`clip_polygon`] in one pass, with their points computed the same way but only
-/// their spans kept; `None` for a part with nothing left.
-///
-/// Always inlined, so that for a triangle the loop is unrolled.
+/// The span of the part of polygon `v` where the distances `d` inside a plane at `plane` on
+/// `AXIS` are `>= 0`: of its vertices there and of the points where its edges cross the
+/// plane.
 #[inline(always)]
-fn split_spans<const AXIS: usize>(
-    verts: &[DVec3],
-    planes: [f64; 2],
-) -> [Option<(DVec3, DVec3)>; 2] {
-    let [below_plane, above_plane] = planes;
-    // Signed distances inside each half-space.
-    let inside = |p: DVec3| [below_plane - p[AXIS], p[AXIS] - above_plane];
-    let mut spans = [(DVec3::INFINITY, DVec3::NEG_INFINITY); 2];
-    let mut any = [false; 2];
-    for edge in verts.windows(2) {
-        let (a, b) = (edge[0], edge[1]);
-        let (da, db) = (inside(a), inside(b));
-        for side in 0..2 {
-            let (span, da, db) = (&mut spans[side], da[side], db[side]);
-            if da >= 0.0 {
-                *span = (span.0.min(a), span.1.max(a));
-                any[side] = true;
+fn part_span<const AXIS: usize>(v: &[DVec3], d: &[f64], plane: f64) -> Span {
+    let n = v.len();
+    let kept = kept(d);
+    let include = |(lo, hi): Span, p: DVec3| (lo.min(p), hi.max(p));
+    let Some(run) = Run::of(kept, n) else {
+        // None, all, or several runs: every edge in turn.
+        let mut span = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for i in 0..n {
+            let j = if i + 1 == n { 0 } else { i + 1 };
+            if d[i] >= 0.0 {
+                span = include(span, v[i]);
             }
-            if (da >= 0.0) != (db >= 0.0) {
-                let mut p = a + (b - a) * (da / (da - db));
-                p[AXIS] = planes[side];
-                *span = (span.0.min(p), span.1.max(p));
-                any[side] = true;
+            if (d[i] >= 0.0) != (d[j] >= 0.0) {
+                span = include(span, crossing::<AXIS>(v[i], v[j], d[i], d[j], plane));
             }
         }
-    }
-    [0, 1].map(|side| any[side].then_some(spans[side]))
-}
-
-/// One Sutherland–Hodgman step: the part of closed polygon `poly` (the first vertex repeated
-/// after the last) where `inside(p) >= 0`, written to `out`, closed. Crossing points get their
-/// `AXIS` coordinate set to `plane` exactly. Returns the new vertex count (not counting the
-/// repeated one), or `None` if it would be more than [`MAX_POLYGON`].
-fn clip_polygon<const AXIS: usize>(
-    poly: &[DVec3],
-    out: &mut [DVec3; MAX_POLYGON + 1],
-    plane: f64,
-    inside: impl Fn(DVec3) -> f64,
-) -> Option<usize> {
-    let mut n = 0;
-    let mut push = |p: DVec3| {
-        let slot = out[..MAX_POLYGON].get_mut(n)?;
-        *slot = p;
-        n += 1;
-        Some(())
+        return span;
     };
-    for edge in poly.windows(2) {
-        let (a, b) = (edge[0], edge[1]);
-        let (da, db) = (inside(a), inside(b));
-        if da >= 0.0 {
-            push(a)?;
-        }
-        if (da >= 0.0) != (db >= 0.0) {
-            let mut p = a + (b - a) * (da / (da - db));
-            p[AXIS] = plane;
-            push(p)?;
+    let [out, back] = run.crossings::<AXIS>(v, d, plane);
+    let mut span = include(include((v[run.first], v[run.first]), v[run.last]), out);
+    span = include(span, back);
+    // A triangle's run has no vertices but its ends.
+    if n > 3 {
+        let mut inner = kept & !(1 << run.first | 1 << run.last);
+        while inner != 0 {
+            span = include(span, v[inner.trailing_zeros() as usize]);
+            inner &= inner - 1;
         }
     }
-    out[n] = out[0];
-    Some(n)
+    span
 }
 
 /// The triangle's box ∩ the cell: conservative when the clip cannot be trusted.
 fn fallback(vertex_box: &Aabb, cell: &Aabb) -> Option<Aabb> {
     let b = vertex_box.intersection(*cell);
     (!b.is_empty()).then_some(b)
-}
-
-fn vertex_box(tri: &Triangle) -> Aabb {
-    Aabb::from_points([tri.v0, tri.v1, tri.v2])
 }
 
 /// The largest f32 `<= x`.
@@ -327,25 +704,346 @@ mod tests {
         Aabb::new(Vec3::from(min), Vec3::from(max))
     }
 
-    /// The closed triangle `tri` in f64.
-    fn closed(tri: &Triangle) -> [DVec3; 4] {
-        let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(DVec3::from);
-        [v0, v1, v2, v0]
+    /// [`split_clipped_bounds`] on `axis`.
+    fn split(tri: &Triangle, cell: &Aabb, axis: usize, position: f32) -> [Option<Aabb>; 2] {
+        match axis {
+            0 => split_clipped_bounds::<0>(tri, cell, position),
+            1 => split_clipped_bounds::<1>(tri, cell, position),
+            _ => split_clipped_bounds::<2>(tri, cell, position),
+        }
     }
 
-    /// The box of `tri ∩ cell` by the same steps as [`split_clipped_bounds`], without a split.
+    /// The box of `tri ∩ cell`: the part below a split at the cell's face.
     fn clipped_bounds(tri: &Triangle, cell: &Aabb) -> Option<Aabb> {
-        let clip = Clip::new(tri, cell);
-        let triangle = closed(tri);
-        let mut buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
-        let verts = match clip.to_cell(&triangle, cell, &mut buffers) {
-            Ok(closed) => closed,
-            Err(Cut::Empty) => return None,
-            Err(Cut::Overflow) => return fallback(&clip.vertex_box, cell),
+        split(tri, cell, 0, cell.max.x)[0]
+    }
+
+    /// One Sutherland–Hodgman step written plainly: the part of polygon `poly` where
+    /// `p[axis] >= plane` (`keep_above`) or `<= plane`, crossings set to `plane` on `axis`.
+    fn clip_plainly(poly: &[DVec3], axis: usize, plane: f64, keep_above: bool) -> Vec<DVec3> {
+        let inside = |p: DVec3| {
+            if keep_above {
+                p[axis] - plane
+            } else {
+                plane - p[axis]
+            }
         };
-        let lo = verts.iter().fold(DVec3::INFINITY, |m, &v| m.min(v));
-        let hi = verts.iter().fold(DVec3::NEG_INFINITY, |m, &v| m.max(v));
-        clip.rounded(lo, hi, cell)
+        let mut part = Vec::new();
+        for (i, &a) in poly.iter().enumerate() {
+            let b = poly[(i + 1) % poly.len()];
+            let (da, db) = (inside(a), inside(b));
+            if da >= 0.0 {
+                part.push(a);
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let mut p = a + (b - a) * (da / (da - db));
+                p[axis] = plane;
+                part.push(p);
+            }
+        }
+        part
+    }
+
+    /// The box of points `part` in the order given (`(+∞, −∞)` for none).
+    fn span_of(part: &[DVec3]) -> Span {
+        part.iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+                (lo.min(p), hi.max(p))
+            })
+    }
+
+    /// [`split_clipped_bounds`] as the module docs define it, without its shortcuts: the
+    /// triangle clipped in f64 to all six faces of the cell grown by the margin (a polygon
+    /// outgrowing [`MAX_POLYGON`] gives the triangle's box ∩ each half), then to each grown side
+    /// of the plane; each part's box rounded outward by the margin and clamped to the
+    /// triangle's box ∩ its half.
+    fn reference(tri: &Triangle, cell: &Aabb, axis: usize, position: f32) -> [Option<Aabb>; 2] {
+        let (mut below, mut above) = (*cell, *cell);
+        below.max[axis] = position;
+        above.min[axis] = position;
+        let vertex_box = Aabb::from_points([tri.v0, tri.v1, tri.v2]);
+        let magnitude = [vertex_box.min, vertex_box.max, cell.min, cell.max]
+            .iter()
+            .fold(0.0f32, |m, v| m.max(v.abs().max_element()));
+        let m = f64::from(magnitude) * MARGIN;
+        let mut poly = vec![tri.v0, tri.v1, tri.v2];
+        let mut poly: Vec<DVec3> = poly.drain(..).map(DVec3::from).collect();
+        for a in 0..3 {
+            let faces = [
+                (f64::from(cell.min[a]) - m, true),
+                (f64::from(cell.max[a]) + m, false),
+            ];
+            for (plane, keep_above) in faces {
+                poly = clip_plainly(&poly, a, plane, keep_above);
+                if poly.len() > MAX_POLYGON {
+                    return [below, above].map(|half| fallback(&vertex_box, &half));
+                }
+            }
+        }
+        let plane = f64::from(position);
+        let sides = [(below, plane + m, false), (above, plane - m, true)];
+        sides.map(|(half, plane, keep_above)| {
+            let (lo, hi) = span_of(&clip_plainly(&poly, axis, plane, keep_above));
+            let exact = vertex_box.intersection(half);
+            // `exact` wins ties, as `f32::max(lo, exact)` and `min` compile on x86.
+            let b = Aabb::new(
+                exact
+                    .min
+                    .max(Vec3::from((lo - m).to_array().map(round_down))),
+                exact.max.min(Vec3::from((hi + m).to_array().map(round_up))),
+            );
+            (!b.is_empty()).then_some(b)
+        })
+    }
+
+    /// The bits of both boxes, so that ±0 compare exactly.
+    fn bits(parts: [Option<Aabb>; 2]) -> [Option<[u32; 6]>; 2] {
+        parts.map(|part| {
+            part.map(|b| {
+                let [x0, y0, z0] = b.min.to_array().map(f32::to_bits);
+                let [x1, y1, z1] = b.max.to_array().map(f32::to_bits);
+                [x0, y0, z0, x1, y1, z1]
+            })
+        })
+    }
+
+    /// A seeded stream of test values (a local xorshift).
+    struct Values(u64);
+
+    impl Values {
+        fn below(&mut self, n: u64) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0 % n
+        }
+
+        /// A coordinate of magnitude about `scale`: zero of either sign, a point of a coarse
+        /// grid (so that vertices, faces and planes coincide), or anywhere.
+        fn coord(&mut self, scale: f32) -> f32 {
+            match self.below(8) {
+                0 => 0.0,
+                1 => -0.0,
+                2 | 3 => (self.below(9) as f32 - 4.0) * 0.25 * scale,
+                _ => (self.below(1 << 24) as f32 / (1 << 23) as f32 - 1.0) * scale,
+            }
+        }
+
+        fn point(&mut self, scale: f32) -> Vec3 {
+            Vec3::new(self.coord(scale), self.coord(scale), self.coord(scale))
+        }
+
+        /// A polygon of `N` points, often not convex.
+        fn polygon<const N: usize>(&mut self) -> [DVec3; N] {
+            let mut v = [DVec3::ZERO; N];
+            for i in 0..N {
+                v[i] = if i > 0 && self.below(6) == 0 {
+                    v[i - 1]
+                } else {
+                    DVec3::from(self.point(1.0))
+                };
+            }
+            v
+        }
+    }
+
+    #[test]
+    fn split_clipped_bounds_equals_the_plain_clip() {
+        // Random triangles, cells and planes at scales from subnormal to huge, on a grid that
+        // makes vertices touch faces and planes, flat, degenerate and all at ±0; and triangles
+        // inside the cell: touching its faces, in the split plane, slivers.
+        let mut values = Values(0x2545_f491_4f6c_dd1d);
+        let mut cases: Vec<(Triangle, Aabb)> = Vec::new();
+        for case in 0..200_000 {
+            let scale = [1.0, 1e-30, 1e30, 3e-39, 1e6, 1e-3][values.below(6) as usize];
+            let scale = if case % 17 == 0 { 0.0 } else { scale };
+            let [a, b, c, p, q] = [(); 5].map(|()| values.point(scale));
+            let mut tri = Triangle::new(a, b, c);
+            let cell = Aabb::new(p.min(q), p.max(q));
+            match case % 10 {
+                // A segment, a point.
+                1 => tri.v1 = tri.v0,
+                2 => (tri.v1, tri.v2) = (tri.v0, tri.v0),
+                // Flat on a face of the cell.
+                3 => [tri.v0.z, tri.v1.z, tri.v2.z] = [cell.min.z; 3],
+                // Inside the cell.
+                4 | 5 => {
+                    let inside = |p: Vec3| p.clamp(cell.min, cell.max);
+                    tri = Triangle::new(inside(a), inside(b), inside(c));
+                }
+                _ => {}
+            }
+            cases.push((tri, cell));
+        }
+        let c = cell([-1.0, -0.5, 0.0], [1.0, 1.5, 2.0]);
+        let v = Vec3::new;
+        let sliver = Triangle::new(
+            v(-0.9, 0.2, 0.3),
+            v(0.9, 0.2000001, 0.3),
+            v(0.1, 0.2, 0.3000001),
+        );
+        for tri in [
+            Triangle::new(v(-1.0, -0.5, 0.0), v(0.5, 0.25, 1.0), v(-0.25, 1.0, 0.5)),
+            Triangle::new(v(1.0, 1.5, 2.0), v(0.0, 0.0, 1.0), v(0.5, 1.5, 0.25)),
+            Triangle::new(v(-1.0, -0.5, 0.0), v(1.0, 1.5, 2.0), v(1.0, -0.5, 2.0)),
+            Triangle::new(v(1.0, 0.0, 0.5), v(1.0, 1.0, 1.5), v(1.0, -0.5, 2.0)),
+            Triangle::new(v(-0.0, 0.0, -0.0), v(0.0, -0.0, 0.0), v(0.5, 0.5, 0.0)),
+            sliver,
+        ] {
+            cases.push((tri, c));
+        }
+        // Cases by the number of faces the triangle's box crosses: 0 (inside), 1, 2 or 3, more.
+        let mut paths = [0; 4];
+        for (tri, cell) in &cases {
+            paths[match Clip::new(tri, cell).faces.count_ones() {
+                faces @ 0..=1 => faces as usize,
+                2 | 3 => 2,
+                _ => 3,
+            }] += 1;
+            for axis in 0..3 {
+                // Splits through the vertices, the cell's faces, its middle and zero.
+                let positions = [
+                    tri.v0[axis],
+                    tri.v1[axis],
+                    tri.v2[axis],
+                    cell.min[axis],
+                    cell.max[axis],
+                    cell.center()[axis],
+                    0.0,
+                ];
+                let position = positions[values.below(7) as usize];
+                let position = position.clamp(cell.min[axis], cell.max[axis]);
+                assert_eq!(
+                    bits(split(tri, cell, axis, position)),
+                    bits(reference(tri, cell, axis, position)),
+                    "{tri:?} {cell:?} {axis} {position:e}"
+                );
+            }
+        }
+        assert!(paths.iter().all(|&n| n > 5_000), "{paths:?}");
+    }
+
+    /// The points of cyclic sequence `v`, a point repeated right after itself counted once.
+    fn cycle(v: &[DVec3]) -> Vec<[u64; 3]> {
+        let mut points: Vec<[u64; 3]> = v.iter().map(|p| p.to_array().map(f64::to_bits)).collect();
+        points.dedup();
+        while points.len() > 1 && points.first() == points.last() {
+            points.pop();
+        }
+        points
+    }
+
+    /// Whether cyclic sequences `a` and `b` are the same up to where they start.
+    fn same_cycle(a: &[[u64; 3]], b: &[[u64; 3]]) -> bool {
+        a.len() == b.len()
+            && (a.is_empty() || (0..a.len()).any(|r| a.iter().cycle().skip(r).take(a.len()).eq(b)))
+    }
+
+    /// [`cut`] of random polygons of `N` vertices against [`clip_plainly`].
+    fn cut_matches_a_clip<const N: usize, const M: usize>(values: &mut Values) -> usize {
+        let mut several_runs = 0;
+        for _ in 0..20_000 {
+            let v = values.polygon::<N>();
+            let axis = values.below(3) as usize;
+            let keep_above = values.below(2) == 0;
+            let plane = f64::from(values.coord(1.0));
+            let got = match axis {
+                0 => cut::<0, N, M>(&v, plane, keep_above),
+                1 => cut::<1, N, M>(&v, plane, keep_above),
+                _ => cut::<2, N, M>(&v, plane, keep_above),
+            };
+            let want = clip_plainly(&v, axis, plane, keep_above);
+            let inside = v.map(|p| inside_plainly(p, axis, plane, keep_above) >= 0.0);
+            let runs = (0..N)
+                .filter(|&i| inside[i] && !inside[(i + N - 1) % N])
+                .count();
+            match got {
+                Ok(cut) => {
+                    assert!(runs <= 1, "{v:?} {axis} {plane}");
+                    assert!(
+                        same_cycle(&cycle(&cut), &cycle(&want)),
+                        "{v:?} {axis} {plane}"
+                    );
+                }
+                Err(Cut::Empty) => assert!(want.is_empty(), "{v:?} {axis} {plane}"),
+                Err(Cut::General) => {
+                    assert!(runs > 1, "{v:?} {axis} {plane}");
+                    several_runs += 1;
+                }
+                Err(Cut::Overflow) => panic!("{v:?} {axis} {plane}"),
+            }
+        }
+        several_runs
+    }
+
+    fn inside_plainly(p: DVec3, axis: usize, plane: f64, keep_above: bool) -> f64 {
+        if keep_above {
+            p[axis] - plane
+        } else {
+            plane - p[axis]
+        }
+    }
+
+    #[test]
+    fn cut_makes_the_points_of_one_clip_step() {
+        // The same points, from the same edges, as one plain step, whatever the polygon (not
+        // convex, vertices repeated); several runs of kept vertices are left to the general
+        // clip, and do occur in these polygons.
+        let mut values = Values(0x9e37_79b9_7f4a_7c15);
+        let several_runs = [
+            cut_matches_a_clip::<3, 4>(&mut values),
+            cut_matches_a_clip::<4, 5>(&mut values),
+            cut_matches_a_clip::<5, 6>(&mut values),
+        ];
+        assert!(several_runs[0] == 0 && several_runs[1..].iter().all(|&n| n > 100));
+    }
+
+    /// [`split_spans`] and [`part_span`] of random polygons of `N` vertices against the spans
+    /// of the plainly clipped parts (equal values: the sign of a zero differs where points
+    /// tie, which the margin then erases).
+    fn spans_match_the_clipped_parts<const N: usize>(values: &mut Values) {
+        for _ in 0..20_000 {
+            let v = values.polygon::<N>();
+            let plane = f64::from(values.coord(1.0));
+            let planes = [plane + 1e-3, plane - 1e-3];
+            let want = [(planes[0], false), (planes[1], true)]
+                .map(|(plane, keep_above)| span_of(&clip_plainly(&v, 1, plane, keep_above)));
+            let spans = split_spans::<1, N>(&v, planes);
+            for (side, (lo, hi)) in want.iter().enumerate() {
+                let got_lo = DVec3::from_array(spans.min.map(|c| c[side]));
+                let got_hi = DVec3::from_array(spans.max.map(|c| c[side]));
+                assert!(got_lo == *lo && got_hi == *hi, "{v:?} {planes:?} {side}");
+                let d = v.map(|p| inside_plainly(p, 1, planes[side], side == 1));
+                let (lo_part, hi_part) = part_span::<1>(&v, &d, planes[side]);
+                assert!(lo_part == *lo && hi_part == *hi, "{v:?} {planes:?} {side}");
+            }
+        }
+    }
+
+    #[test]
+    fn split_spans_span_the_clipped_parts() {
+        let mut values = Values(0xd1b5_4a32_d192_ed03);
+        spans_match_the_clipped_parts::<3>(&mut values);
+        spans_match_the_clipped_parts::<4>(&mut values);
+        spans_match_the_clipped_parts::<6>(&mut values);
+    }
+
+    #[test]
+    fn a_polygon_outgrowing_max_polygon_overflows() {
+        // A zigzag across x = 0: every edge crosses, so 6 kept vertices and 12 crossings.
+        let zigzag: Vec<DVec3> = (0..12)
+            .map(|i| DVec3::new(if i % 2 == 0 { 1.0 } else { -1.0 }, f64::from(i), 0.0))
+            .collect();
+        let mut out = [DVec3::ZERO; MAX_POLYGON];
+        assert!(matches!(
+            clip_polygon::<0>(&zigzag, &mut out, 0.0, true),
+            Err(Cut::Overflow)
+        ));
+        // Four vertices of it fit: 2 kept, 4 crossings.
+        assert!(matches!(
+            clip_polygon::<0>(&zigzag[..4], &mut out, 0.0, true),
+            Ok(Some(6))
+        ));
     }
 
     #[test]
@@ -354,7 +1052,7 @@ mod tests {
         // each half's box is what clipping to that half gives.
         let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
         let c = cell([-1.0, -1.0, -1.0], [2.0, 0.8, 1.0]);
-        let [below, above] = split_clipped_bounds(&tri, &c, 0, 0.5);
+        let [below, above] = split(&tri, &c, 0, 0.5);
         let below = below.unwrap();
         let above = above.unwrap();
         assert_eq!(
@@ -369,7 +1067,7 @@ mod tests {
         assert!((below.max.y - 0.8).abs() < 1e-6 && (above.max.y - 0.5).abs() < 1e-6);
         assert_eq!((below.max.x, above.min.x), (0.5, 0.5));
         // A split beyond the triangle leaves one side empty.
-        let [below, above] = split_clipped_bounds(&tri, &c, 0, 1.5);
+        let [below, above] = split(&tri, &c, 0, 1.5);
         assert!(below.is_some() && above.is_none());
     }
 
@@ -421,116 +1119,6 @@ mod tests {
             max_z >= exact && max_z - exact < 1.9e-6,
             "{max_z} vs {exact}"
         );
-    }
-
-    /// [`split_clipped_bounds_on`] without its shortcuts: the triangle is clipped to all six
-    /// faces of the grown cell, whether its box crosses them or not.
-    fn split_by_clipping_every_face<const AXIS: usize>(
-        tri: &Triangle,
-        cell: &Aabb,
-        position: f32,
-    ) -> [Option<Aabb>; 2] {
-        fn to_faces<const A: usize>(poly: &mut Polygon<'_>, cell: &Aabb, margin: f64) -> bool {
-            poly.clip::<A>(f64::from(cell.min[A]) - margin, true)
-                .is_ok()
-                && poly
-                    .clip::<A>(f64::from(cell.max[A]) + margin, false)
-                    .is_ok()
-        }
-        let (mut below, mut above) = (*cell, *cell);
-        below.max[AXIS] = position;
-        above.min[AXIS] = position;
-        let clip = Clip::new(tri, cell);
-        let mut buffers = [[DVec3::ZERO; MAX_POLYGON + 1]; 2];
-        let [verts, spare] = buffers.each_mut();
-        verts[..4].copy_from_slice(&closed(tri));
-        let mut poly = Polygon {
-            verts,
-            spare,
-            len: 3,
-        };
-        let m = clip.margin;
-        if !(to_faces::<0>(&mut poly, cell, m)
-            && to_faces::<1>(&mut poly, cell, m)
-            && to_faces::<2>(&mut poly, cell, m))
-        {
-            return [None, None];
-        }
-        let plane = f64::from(position);
-        let spans = split_spans::<AXIS>(&poly.verts[..=poly.len], [plane + m, plane - m]);
-        [
-            spans[0].and_then(|(lo, hi)| clip.rounded(lo, hi, &below)),
-            spans[1].and_then(|(lo, hi)| clip.rounded(lo, hi, &above)),
-        ]
-    }
-
-    /// The bits of both boxes, so that ±0 and NaNs compare exactly.
-    fn bits(parts: [Option<Aabb>; 2]) -> [Option<[u32; 6]>; 2] {
-        parts.map(|part| {
-            part.map(|b| {
-                let [x0, y0, z0] = b.min.to_array().map(f32::to_bits);
-                let [x1, y1, z1] = b.max.to_array().map(f32::to_bits);
-                [x0, y0, z0, x1, y1, z1]
-            })
-        })
-    }
-
-    #[test]
-    fn the_inside_shortcut_equals_clipping_to_every_face() {
-        // For a triangle inside the cell, `split_clipped_bounds` skips the clip to the cell.
-        // Clipping to all six grown faces instead must give the same boxes bit for bit, for
-        // triangles touching the faces, flat, degenerate, in the split plane, with −0.
-        let c = cell([-1.0, -0.5, 0.0], [1.0, 1.5, 2.0]);
-        let v = Vec3::new;
-        let triangles = [
-            // General, well inside.
-            Triangle::new(v(-0.3, 0.1, 0.2), v(0.7, 0.9, 1.1), v(0.1, -0.2, 1.9)),
-            // Touching the min faces, and the max faces.
-            Triangle::new(v(-1.0, -0.5, 0.0), v(0.5, 0.25, 1.0), v(-0.25, 1.0, 0.5)),
-            Triangle::new(v(1.0, 1.5, 2.0), v(0.0, 0.0, 1.0), v(0.5, 1.5, 0.25)),
-            // Spanning the cell corner to corner.
-            Triangle::new(v(-1.0, -0.5, 0.0), v(1.0, 1.5, 2.0), v(1.0, -0.5, 2.0)),
-            // Flat in z, and flat in x on the cell's face.
-            Triangle::new(v(-0.5, 0.0, 1.0), v(0.5, 1.0, 1.0), v(0.25, -0.25, 1.0)),
-            Triangle::new(v(1.0, 0.0, 0.5), v(1.0, 1.0, 1.5), v(1.0, -0.5, 2.0)),
-            // A segment, a point, and −0 coordinates.
-            Triangle::new(v(-0.75, 0.0, 0.5), v(0.75, 1.0, 1.5), v(0.0, 0.5, 1.0)),
-            Triangle::new(v(0.3, 0.3, 0.3), v(0.3, 0.3, 0.3), v(0.3, 0.3, 0.3)),
-            Triangle::new(v(-0.0, 0.0, -0.0), v(0.0, -0.0, 0.0), v(0.5, 0.5, 0.0)),
-            // A sliver with an edge nearly along x.
-            Triangle::new(
-                v(-0.9, 0.2, 0.3),
-                v(0.9, 0.2000001, 0.3),
-                v(0.1, 0.2, 0.3000001),
-            ),
-        ];
-        for tri in &triangles {
-            let vb = vertex_box(tri);
-            assert!(Clip::new(tri, &c).inside(&c), "{tri:?}");
-            for axis in 0..3 {
-                // Splits through the vertices, the cell's faces, the box's middle and zero;
-                // the first puts a triangle flat on `axis` in the split plane.
-                let positions = [
-                    tri.v0,
-                    tri.v1,
-                    tri.v2,
-                    c.min,
-                    c.max,
-                    vb.center(),
-                    Vec3::ZERO,
-                ]
-                .map(|p| p[axis].clamp(c.min[axis], c.max[axis]));
-                for position in positions {
-                    let general = match axis {
-                        0 => split_by_clipping_every_face::<0>(tri, &c, position),
-                        1 => split_by_clipping_every_face::<1>(tri, &c, position),
-                        _ => split_by_clipping_every_face::<2>(tri, &c, position),
-                    };
-                    let fast = split_clipped_bounds(tri, &c, axis, position);
-                    assert_eq!(bits(fast), bits(general), "{tri:?} {axis} {position}");
-                }
-            }
-        }
     }
 
     #[test]
