@@ -222,9 +222,9 @@ struct AxisCounts {
 }
 
 impl ExactPlanes {
-    /// Replaces the contents with the planes of the boxes of `refs` (at most 2²³) strictly
-    /// inside `cell`, counted in the lanes of `isa`. (The empty-space cuts only shrink the cell,
-    /// so no plane outside it can come back.)
+    /// Replaces the contents with the planes of the boxes of `refs` strictly inside `cell`,
+    /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
+    /// outside it can come back.)
     ///
     /// # Panics
     /// If `refs` holds more than [`COUNTED_SEARCH_MAX`] references.
