@@ -55,6 +55,8 @@ impl Ref {
     /// The box's span `(min, max)` on `axis` (0, 1 or 2).
     #[inline(always)]
     pub fn span(&self, axis: usize) -> (f32, f32) {
+        // Axis 3 would read the spare lanes, not panic.
+        debug_assert!(axis < 3);
         let faces: &[f32; 8] = bytemuck::cast_ref(self);
         (faces[axis], faces[axis + 4])
     }

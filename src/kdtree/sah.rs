@@ -241,8 +241,8 @@ impl ExactPlanes {
         let (cell_lo, cell_hi) = (Vec3A::from(cell.min), Vec3A::from(cell.max));
         let inside = |p: Vec3A| (p.cmpgt(cell_lo) & p.cmplt(cell_hi)).bitmask() as usize;
         let (mut len, mut flat) = ([0; 3], BVec3A::FALSE);
-        // Plane `k` is written at `k` (below `2 · refs.len()`), so the mask that spares the
-        // bounds checks never wraps.
+        // The `k`-th plane written goes at an index of at most `k`, below `2 · refs.len()`,
+        // which is at most `COUNTED_PLANES`: the mask that spares the bounds checks never wraps.
         let mut pos = self.axes.each_mut().map(|a| {
             a.make_room(COUNTED_PLANES);
             <&mut [f32; COUNTED_PLANES]>::try_from(&mut a.pos[..COUNTED_PLANES]).unwrap()
