@@ -365,7 +365,7 @@ fn build_subtree(
         out,
         &mut open,
         |cell| match &bins {
-            Some(bins) => context.costs.best_binned_split(bins, cell),
+            Some(bins) => context.costs.best_binned_split(context.isa, bins, cell),
             None => context.costs.best_split(context.isa, planes, cell),
         },
     )?;
@@ -720,17 +720,21 @@ mod tests {
     }
 
     #[test]
-    fn counted_and_swept_searches_build_the_same_tree_on_every_isa() {
+    fn counted_swept_and_binned_searches_build_the_same_tree_on_every_isa() {
         // A soup, and a box of grids whose flat triangles put planar boxes on the planes.
         let meshes = [
             soup(1500, 3),
             crate::scene::procedural::closed_grid_box(8, glam::Vec3::ZERO, glam::Vec3::ONE),
         ];
+        // Exact searches only, and binned ones above the default threshold.
+        let settings = [0.1, 1.5, 10.0].into_iter().flat_map(|ci_over_ct| {
+            [200, BuildParams::default().exact_search_max].map(|exact| (ci_over_ct, exact))
+        });
         for mesh in &meshes {
-            for ci_over_ct in [0.1, 1.5, 10.0] {
+            for (ci_over_ct, exact_search_max) in settings.clone() {
                 let params = BuildParams {
                     ci_over_ct,
-                    exact_search_max: 200,
+                    exact_search_max,
                     ..BuildParams::default()
                 };
                 let swept = KdTreeBuilder::new()
@@ -744,7 +748,10 @@ mod tests {
                         .unwrap()
                         .build(mesh, &params)
                         .unwrap();
-                    assert!(same_tree(&counted, &swept), "{isa}, ci/ct {ci_over_ct}");
+                    assert!(
+                        same_tree(&counted, &swept),
+                        "{isa}, ci/ct {ci_over_ct}, exact≤{exact_search_max}"
+                    );
                 }
             }
         }

@@ -68,10 +68,78 @@ impl CostModel {
     /// the cell are offered, so an empty side is never a flat, zero-volume cell (which would
     /// earn the bonus for nothing, and could repeat forever).
     ///
-    /// Ties keep the first plane found (axes in order, positions ascending), and the below side
-    /// for the triangles lying in the plane.
+    /// Ties: on an axis the lowest weight `λ · (P_b·N_b + P_a·N_a)` wins, then the lowest
+    /// position; between axes the lowest cost, then the first axis. The triangles lying in the
+    /// plane go below when both sides cost the same.
     pub fn best_split(&self, isa: Isa, planes: &ExactPlanes, cell: &Aabb) -> Option<Split> {
-        let cells = AxisGeometry::of_cell(cell).map(|g| {
+        let cells = self.axis_cells(cell);
+        let found = run_on(
+            isa,
+            Cheapest {
+                candidates: planes,
+                cells,
+            },
+        );
+        self.cheapest_of_axes(found, |axis, index, planar_below| {
+            let counts = &planes.axes[axis];
+            let planar = counts.planar[index] as u32;
+            let (pb, pa) = if planar_below {
+                (planar, 0)
+            } else {
+                (0, planar)
+            };
+            Split {
+                axis,
+                pos_key: key(counts.pos[index]),
+                planar_below,
+                cost: 0.0,
+                below_count: counts.below[index] as u32 + pb,
+                above_count: counts.above[index] as u32 + pa,
+            }
+        })
+    }
+
+    /// The cheapest plane in `cell` among a binned node's candidates ([`Bins`]): per axis, the
+    /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
+    /// boundaries strictly between the union's faces, and the face above them all
+    /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
+    /// [`CostModel::best_split`]. Costed in the lanes of `isa` by the exact search's kernel,
+    /// with the same plane on every ISA.
+    ///
+    /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
+    /// (so that empty space is cut off exactly where the sweep would cut it), and at a boundary
+    /// an estimate that may count a triangle touching the plane on the wrong side. Only the
+    /// choice of plane is approximate: the split itself classifies and clips exactly. A boundary
+    /// never sees an empty side (the union's faces lie in the first and last bins), so
+    /// [`Split::below_count`] and [`Split::above_count`] are 0 only when exact.
+    ///
+    /// Ties as for [`CostModel::best_split`]. (A weight, not the cost `1 + Ci/Ct · weight`, picks
+    /// the plane of an axis: two weights can round to one cost.) Triangles lying in a plane go
+    /// below, except at the union's lower face (where they go above, so that the below side is
+    /// empty).
+    pub fn best_binned_split(&self, isa: Isa, bins: &Bins, cell: &Aabb) -> Option<Split> {
+        let cells = self.axis_cells(cell);
+        let found = run_on(
+            isa,
+            Cheapest {
+                candidates: bins,
+                cells,
+            },
+        );
+        self.cheapest_of_axes(found, |axis, index, _| Split {
+            axis,
+            pos_key: key(bins.pos[axis][index]),
+            planar_below: index != 0,
+            cost: 0.0,
+            below_count: bins.below[axis][index] as u32,
+            above_count: bins.above[axis][index] as u32,
+        })
+    }
+
+    /// The [`AxisCell`] of each axis of `cell` on which a plane may lie strictly inside.
+    #[inline]
+    fn axis_cells(&self, cell: &Aabb) -> [Option<AxisCell>; 3] {
+        AxisGeometry::of_cell(cell).map(|g| {
             g.map(|g| AxisCell {
                 base: g.base,
                 slope: g.slope,
@@ -79,10 +147,20 @@ impl CostModel {
                 hi: g.hi,
                 empty_factor: self.empty_factor,
             })
-        });
-        let found = run_on(isa, Cheapest { planes, cells });
+        })
+    }
+
+    /// The cheapest of the axes' cheapest planes `found`, as a split: `split(axis, index,
+    /// planar_below)` describes plane `index` of `axis`, and its cost `1 + Ci/Ct · weight` is
+    /// filled in. Ties keep the first axis.
+    #[inline]
+    fn cheapest_of_axes(
+        &self,
+        found: [Option<CheapestPlane>; 3],
+        split: impl Fn(usize, usize, bool) -> Split,
+    ) -> Option<Split> {
         let mut best: Option<Split> = None;
-        for (axis, (found, counts)) in found.into_iter().zip(&planes.axes).enumerate() {
+        for (axis, found) in found.into_iter().enumerate() {
             let Some(CheapestPlane {
                 index,
                 weight,
@@ -93,93 +171,13 @@ impl CostModel {
             };
             let cost = 1.0 + self.ci_over_ct * weight;
             if best.is_none_or(|b| cost < b.cost) {
-                let planar = counts.planar[index] as u32;
-                let (pb, pa) = if planar_below {
-                    (planar, 0)
-                } else {
-                    (0, planar)
-                };
                 best = Some(Split {
-                    axis,
-                    pos_key: key(counts.pos()[index]),
-                    planar_below,
                     cost,
-                    below_count: counts.below[index] as u32 + pb,
-                    above_count: counts.above[index] as u32 + pa,
+                    ..split(axis, index, planar_below)
                 });
             }
         }
         best
-    }
-
-    /// The cheapest plane in `cell` among a binned node's candidates ([`Bins`]): per axis, the
-    /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
-    /// boundaries strictly between the union's faces, and the face above them all
-    /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
-    /// [`CostModel::best_split`].
-    ///
-    /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
-    /// (so that empty space is cut off exactly where the sweep would cut it), and at a boundary
-    /// an estimate that may count a triangle touching the plane on the wrong side. Only the
-    /// choice of plane is approximate: the split itself classifies and clips exactly. A boundary
-    /// never sees an empty side (the union's faces lie in the first and last bins), so
-    /// [`Split::below_count`] and [`Split::above_count`] are 0 only when exact.
-    ///
-    /// Ties keep the first plane found (axes in order, positions ascending). Triangles lying in
-    /// a plane go below, except at the union's lower face (where they go above, so that the
-    /// below side is empty).
-    pub fn best_binned_split(&self, bins: &Bins, cell: &Aabb) -> Option<Split> {
-        let mut best: Option<Split> = None;
-        let n = bins.count;
-        for (axis, g) in AxisGeometry::of_cell(cell).into_iter().enumerate() {
-            let Some(g) = g else {
-                continue;
-            };
-            let (first, last) = (bins.union.min[axis], bins.union.max[axis]);
-            let mut offer = |p: f32, planar_below: bool, below: u32, above: u32| {
-                if !(p > g.lo && p < g.hi) {
-                    return;
-                }
-                let (p_below, p_above) = g.areas(p);
-                let w = self.weighted(p_below, p_above, below as f32, above as f32);
-                let cost = 1.0 + self.ci_over_ct * w;
-                if best.is_none_or(|b| cost < b.cost) {
-                    best = Some(Split {
-                        axis,
-                        pos_key: key(p),
-                        planar_below,
-                        cost,
-                        below_count: below,
-                        above_count: above,
-                    });
-                }
-            };
-            offer(first, false, 0, n);
-            let (mut below, mut above) = (0u32, n);
-            for j in 1..BINS {
-                below += bins.starts[axis][j - 1];
-                above -= bins.ends[axis][j - 1];
-                let p = bins.boundary(axis, j);
-                if p > first && p < last {
-                    offer(p, true, below, above);
-                }
-            }
-            offer(last, true, n, 0);
-        }
-        best
-    }
-
-    /// `λ · (P_b·N_b + P_a·N_a)`: the part of a plane's cost that differs between planes, with
-    /// λ = `1 − empty_bonus` when a side is empty. Counts are converted to f32 (exact below
-    /// 2^24; beyond, rounding only blurs near-ties).
-    #[inline(always)]
-    fn weighted(&self, p_below: f32, p_above: f32, nb: f32, na: f32) -> f32 {
-        let lambda = if nb == 0.0 || na == 0.0 {
-            self.empty_factor
-        } else {
-            1.0
-        };
-        lambda * (p_below * nb + p_above * na)
     }
 }
 
@@ -306,6 +304,20 @@ impl ExactPlanes {
     }
 }
 
+impl Candidates for ExactPlanes {
+    #[inline(always)]
+    fn planes(&self, axis: usize) -> AxisPlanes<'_> {
+        let a = &self.axes[axis];
+        let len = a.len;
+        AxisPlanes {
+            pos: &a.pos[..len],
+            below: &a.below[..len],
+            above: &a.above[..len],
+            planar: a.flat.then(|| &a.planar[..len]),
+        }
+    }
+}
+
 impl AxisCounts {
     /// Grows the buffers to hold `planes` planes and their padding.
     fn make_room(&mut self, planes: usize) {
@@ -326,11 +338,6 @@ impl AxisCounts {
     fn pad(&mut self, len: usize) {
         self.len = len.next_multiple_of(8);
         self.pos[len..self.len].fill(f32::NAN);
-    }
-
-    /// The planes' positions.
-    fn pos(&self) -> &[f32] {
-        &self.pos[..self.len]
     }
 }
 
@@ -359,28 +366,29 @@ impl LaneTask for Count<'_> {
     }
 }
 
-/// [`CostModel::best_split`]'s kernel calls: the cheapest plane of each axis with a cell
-/// span, in one ISA entry point.
-struct Cheapest<'a> {
-    planes: &'a ExactPlanes,
+/// Candidate planes with their counts, per axis: [`ExactPlanes`] or [`Bins`].
+trait Candidates {
+    /// The planes of `axis`, for the kernels.
+    fn planes(&self, axis: usize) -> AxisPlanes<'_>;
+}
+
+/// The kernel calls of [`CostModel::best_split`] and [`CostModel::best_binned_split`]: the
+/// cheapest plane of each axis with a cell span, in one ISA entry point.
+struct Cheapest<'a, C> {
+    candidates: &'a C,
     cells: [Option<AxisCell>; 3],
 }
 
-impl LaneTask for Cheapest<'_> {
+impl<C: Candidates> LaneTask for Cheapest<'_, C> {
     type Output = [Option<CheapestPlane>; 3];
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> Self::Output {
+        // A loop, not `map`: a closure would not inherit the entry point's target features.
         let mut found = [None; 3];
-        for ((found, c), cell) in found.iter_mut().zip(&self.planes.axes).zip(&self.cells) {
-            let Some(cell) = cell else { continue };
-            let len = c.len;
-            let planes = AxisPlanes {
-                pos: c.pos(),
-                below: &c.below[..len],
-                above: &c.above[..len],
-                planar: c.flat.then(|| &c.planar[..len]),
-            };
-            *found = cheapest_plane(l, &planes, cell);
+        for (axis, (found, cell)) in found.iter_mut().zip(&self.cells).enumerate() {
+            if let Some(cell) = cell {
+                *found = cheapest_plane(l, &self.candidates.planes(axis), cell);
+            }
         }
         found
     }
@@ -425,16 +433,6 @@ impl AxisGeometry {
             })
         })
     }
-
-    /// `(P_below, P_above)` of the plane at `p`. Differences from the cell's faces keep
-    /// precision far from the origin.
-    #[inline(always)]
-    fn areas(&self, p: f32) -> (f32, f32) {
-        (
-            self.base + self.slope * (p - self.lo),
-            self.base + self.slope * (self.hi - p),
-        )
-    }
 }
 
 /// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
@@ -448,48 +446,82 @@ fn bin_index(t: i32) -> usize {
     (t as usize) & (BINS - 1)
 }
 
-/// A binned node's triangle counts: per axis and bin of its clipped boxes' union, how many boxes
-/// start (have their minimum) and end (their maximum) in it. Bin `j` of an axis covers
+/// Candidate planes per axis of the binned search: the union's lower face, the [`BINS`] − 1
+/// bin boundaries and its upper face, padded to whole vectors of the widest lanes.
+const BINNED_PLANES: usize = (BINS + 1).next_multiple_of(8);
+
+/// A binned node's candidate planes with their counts, in the lanes [`cheapest_plane`] reads:
+/// per axis, plane 0 is the lower face of its clipped boxes' union (none below, all above),
+/// plane `j` in `1..BINS` the boundary between bins `j − 1` and `j` (the boxes starting in the
+/// bins before it are counted below, those ending in the bins from `j` on above), and plane
+/// [`BINS`] the union's upper face (all below, none above). Bin `j` of an axis covers
 /// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]` (up to
-/// f32 rounding, which only blurs the counts), the last bin closed. Kept across the
-/// empty-space cuts of a node, which change its cell, not its triangles.
+/// f32 rounding, which only blurs the counts), the last bin closed. A boundary not strictly
+/// between the faces, and the padding, have a NaN position, which no cell contains. Kept
+/// across the empty-space cuts of a node, which change its cell, not its triangles.
 pub(super) struct Bins {
-    union: Aabb,
-    /// Bins per unit of length, per axis (infinite on a flat axis).
-    per_unit: [f32; 3],
-    starts: [[u32; BINS]; 3],
-    ends: [[u32; BINS]; 3],
-    count: u32,
+    pos: [[f32; BINNED_PLANES]; 3],
+    below: [[f32; BINNED_PLANES]; 3],
+    above: [[f32; BINNED_PLANES]; 3],
 }
 
 impl Bins {
-    /// The counts of the non-empty boxes of `refs` (at most 2³² − 1), whose union is `union`.
+    /// The candidates of the non-empty boxes of `refs` (at most 2³² − 1), whose union is
+    /// `union`. Counts are converted to f32, exact below 2²⁴ (beyond, rounding only blurs
+    /// near-ties).
     pub fn new(refs: &[Ref], union: Aabb) -> Bins {
-        let per_unit = (BINS as f32 / union.extent()).to_array();
-        let mut bins = Bins {
-            union,
-            per_unit,
-            starts: [[0; BINS]; 3],
-            ends: [[0; BINS]; 3],
-            count: refs.len() as u32,
-        };
-        let (first, scale) = (Vec3A::from(union.min), Vec3A::from_array(per_unit));
+        let per_unit = BINS as f32 / union.extent();
+        let (mut starts, mut ends) = ([[0u32; BINS]; 3], [[0u32; BINS]; 3]);
+        let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit));
         let last = Vec3A::splat((BINS - 1) as f32);
         // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
         let bin = |x: Vec3A| ((x - first) * scale).max(Vec3A::ZERO).min(last);
         for r in refs {
             let (lo, hi) = (truncate_to_i32(bin(r.lo())), truncate_to_i32(bin(r.hi())));
             for axis in 0..3 {
-                bins.starts[axis][bin_index(lo[axis])] += 1;
-                bins.ends[axis][bin_index(hi[axis])] += 1;
+                starts[axis][bin_index(lo[axis])] += 1;
+                ends[axis][bin_index(hi[axis])] += 1;
             }
+        }
+        let n = refs.len() as u32;
+        let mut bins = Bins {
+            pos: [[f32::NAN; BINNED_PLANES]; 3],
+            below: [[0.0; BINNED_PLANES]; 3],
+            above: [[0.0; BINNED_PLANES]; 3],
+        };
+        for axis in 0..3 {
+            let (first, last) = (union.min[axis], union.max[axis]);
+            let (pos, below, above) = (
+                &mut bins.pos[axis],
+                &mut bins.below[axis],
+                &mut bins.above[axis],
+            );
+            (pos[0], below[0], above[0]) = (first, 0.0, n as f32);
+            let (mut nb, mut na) = (0u32, n);
+            for j in 1..BINS {
+                nb += starts[axis][j - 1];
+                na -= ends[axis][j - 1];
+                let p = first + j as f32 / per_unit[axis];
+                if p > first && p < last {
+                    pos[j] = p;
+                }
+                (below[j], above[j]) = (nb as f32, na as f32);
+            }
+            (pos[BINS], below[BINS], above[BINS]) = (last, n as f32, 0.0);
         }
         bins
     }
+}
 
-    /// The position of boundary `j` (between bins `j − 1` and `j`) on `axis`.
-    fn boundary(&self, axis: usize, j: usize) -> f32 {
-        self.union.min[axis] + j as f32 / self.per_unit[axis]
+impl Candidates for Bins {
+    #[inline(always)]
+    fn planes(&self, axis: usize) -> AxisPlanes<'_> {
+        AxisPlanes {
+            pos: &self.pos[axis],
+            below: &self.below[axis],
+            above: &self.above[axis],
+            planar: None,
+        }
     }
 }
 
@@ -522,7 +554,7 @@ mod tests {
         let mut planes = ExactPlanes::default();
         planes.sweep(&events, 3, &cell);
         let listed = |a: &AxisCounts| -> Vec<_> {
-            let real = a.pos().iter().take_while(|p| !p.is_nan()).count();
+            let real = a.pos[..a.len].iter().take_while(|p| !p.is_nan()).count();
             (0..real)
                 .map(|i| (a.pos[i], a.below[i], a.above[i], a.planar[i]))
                 .collect()
@@ -536,7 +568,7 @@ mod tests {
                 (2.0, 3.0, 0.0, 0.0)
             ]
         );
-        assert!(x.flat && x.pos()[3..].iter().all(|p| p.is_nan()));
+        assert!(x.flat && x.pos[3..x.len].iter().all(|p| p.is_nan()));
         assert!(listed(&planes.axes[1]).is_empty() && listed(&planes.axes[2]).is_empty());
     }
 
@@ -556,14 +588,19 @@ mod tests {
             .zip(0..)
             .map(|(b, id)| Ref::new(id, b))
             .collect();
-        let bins = Bins::new(&refs, boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b)));
+        let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
+        let bins = Bins::new(&refs, union);
         // In a cell twice as wide, the empty space above goes first, cut at the union's face.
         let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
-        let cut = costs.best_binned_split(&bins, &wide).unwrap();
-        assert_eq!((cut.axis, unkey(cut.pos_key)), (0, bins.union.max.x));
+        for isa in Isa::available() {
+            let cut = costs.best_binned_split(isa, &bins, &wide).unwrap();
+            assert_eq!((cut.axis, unkey(cut.pos_key)), (0, union.max.x), "{isa}");
+            assert_eq!((cut.below_count, cut.above_count), (100, 0), "{isa}");
+        }
+        let cut = costs.best_binned_split(Isa::Scalar, &bins, &wide).unwrap();
         assert_eq!((cut.below_count, cut.above_count), (100, 0));
         // In the union itself, the plane between the clusters, with exact counts there.
-        let split = costs.best_binned_split(&bins, &bins.union).unwrap();
+        let split = costs.best_binned_split(Isa::Scalar, &bins, &union).unwrap();
         let p = unkey(split.pos_key);
         assert_eq!(split.axis, 0);
         assert!(p > 0.1 && p < 0.9, "{p}");
