@@ -13,9 +13,9 @@ pub(super) const EMPTY_RECORD: LeafRecord = LeafRecord {
     bounds: Aabb::EMPTY,
 };
 
-/// A subtree in depth-first order. Leaf nodes refer to record 0 (empty) or to `1 + i` for
-/// `records[i]`; record 0 itself is added by [`Layout::finish`].
-#[derive(Debug, Default)]
+/// A subtree in depth-first order. Leaf nodes refer to their record in `records`, whose first
+/// is the empty leaves' [`EMPTY_RECORD`], as in the tree.
+#[derive(Debug)]
 pub(super) struct Layout {
     nodes: Vec<Node>,
     records: Vec<LeafRecord>,
@@ -30,6 +30,17 @@ fn too_big(what: &str) -> Error {
     }
 }
 
+impl Default for Layout {
+    fn default() -> Self {
+        Layout {
+            nodes: Vec::new(),
+            records: vec![EMPTY_RECORD],
+            ids: Vec::new(),
+            max_depth: 0,
+        }
+    }
+}
+
 impl Layout {
     /// Appends an empty leaf at `depth`.
     pub fn push_empty_leaf(&mut self, depth: u32) {
@@ -39,7 +50,7 @@ impl Layout {
 
     /// Appends a leaf at `depth` holding `ids` (in the order given) inside `bounds`.
     pub fn push_leaf(&mut self, depth: u32, ids: &[u32], bounds: Aabb) -> Result<()> {
-        let record = u32::try_from(self.records.len() + 1)
+        let record = u32::try_from(self.records.len())
             .ok()
             .filter(|&r| r <= MAX_NODE_INDEX)
             .ok_or_else(|| too_big("leaves"))?;
@@ -76,11 +87,13 @@ impl Layout {
         Ok(())
     }
 
-    /// Appends subtree `other`, shifting its node, record and triangle indices.
+    /// Appends subtree `other`, shifting its node, record and triangle indices (its empty
+    /// record is this one's).
     #[cfg(feature = "parallel")]
     pub fn append(&mut self, other: Layout) -> Result<()> {
         let node_offset = u32::try_from(self.nodes.len()).map_err(|_| too_big("nodes"))?;
-        let record_offset = u32::try_from(self.records.len()).map_err(|_| too_big("leaves"))?;
+        let record_offset =
+            u32::try_from(self.records.len() - 1).map_err(|_| too_big("leaves"))?;
         let id_offset =
             u32::try_from(self.ids.len()).map_err(|_| too_big("triangle references"))?;
         let shift = |index: u32, offset: u32| {
@@ -103,8 +116,8 @@ impl Layout {
                 Node::leaf(shift(node.leaf_record(), record_offset)?)
             });
         }
-        self.records.reserve(other.records.len());
-        for record in other.records {
+        self.records.reserve(other.records.len() - 1);
+        for record in other.records.into_iter().skip(1) {
             let first = record
                 .first
                 .checked_add(id_offset)
@@ -121,13 +134,13 @@ impl Layout {
     pub fn clear(&mut self) {
         self.nodes.clear();
         self.records.clear();
+        self.records.push(EMPTY_RECORD);
         self.ids.clear();
         self.max_depth = 0;
     }
 
-    /// Moves the final arrays into a tree's: `nodes` and `ids` are swapped (the layout keeps
-    /// the old buffers for its next build), `leaves` gets the shared empty record at index 0
-    /// and then the records. Returns the depth of the deepest leaf.
+    /// Moves the final arrays into a tree's, swapping them (the layout keeps the tree's old
+    /// buffers for its next build). Returns the depth of the deepest leaf.
     pub fn finish_into(
         &mut self,
         nodes: &mut Vec<Node>,
@@ -135,10 +148,8 @@ impl Layout {
         ids: &mut Vec<u32>,
     ) -> u32 {
         std::mem::swap(nodes, &mut self.nodes);
+        std::mem::swap(leaves, &mut self.records);
         std::mem::swap(ids, &mut self.ids);
-        leaves.clear();
-        leaves.push(EMPTY_RECORD);
-        leaves.extend_from_slice(&self.records);
         self.max_depth
     }
 }
