@@ -92,8 +92,7 @@ impl Layout {
     #[cfg(feature = "parallel")]
     pub fn append(&mut self, other: Layout) -> Result<()> {
         let node_offset = u32::try_from(self.nodes.len()).map_err(|_| too_big("nodes"))?;
-        let record_offset =
-            u32::try_from(self.records.len() - 1).map_err(|_| too_big("leaves"))?;
+        let record_offset = u32::try_from(self.records.len() - 1).map_err(|_| too_big("leaves"))?;
         let id_offset =
             u32::try_from(self.ids.len()).map_err(|_| too_big("triangle references"))?;
         let shift = |index: u32, offset: u32| {
