@@ -72,15 +72,7 @@ impl CostModel {
     /// position; between axes the lowest cost, then the first axis. The triangles lying in the
     /// plane go below when both sides cost the same.
     pub fn best_split(&self, isa: Isa, planes: &ExactPlanes, cell: &Aabb) -> Option<Split> {
-        let cells = self.axis_cells(cell);
-        let found = run_on(
-            isa,
-            Cheapest {
-                candidates: planes,
-                cells,
-            },
-        );
-        self.cheapest_of_axes(found, |axis, index, planar_below| {
+        self.cheapest(isa, planes, cell, |axis, index, planar_below| {
             let counts = &planes.axes[axis];
             let planar = counts.planar[index] as u32;
             let (pb, pa) = if planar_below {
@@ -118,15 +110,7 @@ impl CostModel {
     /// below, except at the union's lower face (where they go above, so that the below side is
     /// empty).
     pub fn best_binned_split(&self, isa: Isa, bins: &Bins, cell: &Aabb) -> Option<Split> {
-        let cells = self.axis_cells(cell);
-        let found = run_on(
-            isa,
-            Cheapest {
-                candidates: bins,
-                cells,
-            },
-        );
-        self.cheapest_of_axes(found, |axis, index, _| Split {
+        self.cheapest(isa, bins, cell, |axis, index, _| Split {
             axis,
             pos_key: key(bins.pos[axis][index]),
             planar_below: index != 0,
@@ -136,10 +120,18 @@ impl CostModel {
         })
     }
 
-    /// The [`AxisCell`] of each axis of `cell` on which a plane may lie strictly inside.
+    /// The cheapest of `candidates` in `cell`, costed in the lanes of `isa`, as a split:
+    /// `split(axis, index, planar_below)` describes plane `index` of `axis`, and its cost
+    /// `1 + Ci/Ct · weight` is filled in. Between axes the lowest cost wins, then the first.
     #[inline]
-    fn axis_cells(&self, cell: &Aabb) -> [Option<AxisCell>; 3] {
-        AxisGeometry::of_cell(cell).map(|g| {
+    fn cheapest<C: Candidates>(
+        &self,
+        isa: Isa,
+        candidates: &C,
+        cell: &Aabb,
+        split: impl Fn(usize, usize, bool) -> Split,
+    ) -> Option<Split> {
+        let cells = AxisGeometry::of_cell(cell).map(|g| {
             g.map(|g| AxisCell {
                 base: g.base,
                 slope: g.slope,
@@ -147,18 +139,8 @@ impl CostModel {
                 hi: g.hi,
                 empty_factor: self.empty_factor,
             })
-        })
-    }
-
-    /// The cheapest of the axes' cheapest planes `found`, as a split: `split(axis, index,
-    /// planar_below)` describes plane `index` of `axis`, and its cost `1 + Ci/Ct · weight` is
-    /// filled in. Ties keep the first axis.
-    #[inline]
-    fn cheapest_of_axes(
-        &self,
-        found: [Option<CheapestPlane>; 3],
-        split: impl Fn(usize, usize, bool) -> Split,
-    ) -> Option<Split> {
+        });
+        let found = run_on(isa, Cheapest { candidates, cells });
         let mut best: Option<Split> = None;
         for (axis, found) in found.into_iter().enumerate() {
             let Some(CheapestPlane {
