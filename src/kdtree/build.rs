@@ -60,11 +60,12 @@ const PARALLEL_MIN_TRIANGLES: usize = 4096;
 const MAX_TRIANGLES: usize = 1 << 30;
 
 /// A node waiting to be built: its run of the thread's references ([`Scratch::refs`]), its
-/// cell, and the union of its boxes (which lies inside the cell).
+/// cell, and the union of its boxes (which lies inside the cell) when it may be binned: an
+/// exact search does not need it, and a leaf takes it from its few boxes.
 struct BoxNode {
     refs: Range<usize>,
     cell: Aabb,
-    union: Aabb,
+    union: Option<Aabb>,
 }
 
 /// What stays the same for the whole build.
@@ -100,7 +101,8 @@ struct Scratch {
     top: usize,
     /// A leaf's ids, to be sorted.
     leaf_ids: Vec<u32>,
-    /// The ids of a split's straddling triangles, to be clipped.
+    /// The ids of a split's straddling triangles, to be clipped; only grows, so that the
+    /// classification writes them by index.
     straddling: Vec<u32>,
     events: [Vec<Event>; 3],
     planes: ExactPlanes,
@@ -328,7 +330,7 @@ fn root_node(context: &Context<'_>, scratch: &mut Scratch) -> BoxNode {
     BoxNode {
         refs: 0..scratch.top,
         cell: union.aabb(),
-        union: union.aabb(),
+        union: Some(union.aabb()),
     }
 }
 
@@ -347,7 +349,8 @@ fn build_subtree(
     // node may be split, so neither is prepared otherwise.
     let searched = may_split(context, n, depth);
     let refs = &scratch.refs[node.refs.clone()];
-    let bins = (searched && n > context.exact_max).then(|| Bins::new(refs, node.union));
+    let bins = (searched && n > context.exact_max)
+        .then(|| Bins::new(refs, node.union.unwrap_or_else(|| union_of(refs))));
     if searched && n <= context.exact_max {
         let Scratch { events, planes, .. } = scratch;
         if n <= context.count_max {
@@ -379,6 +382,15 @@ fn build_subtree(
         }
     }
     close_cuts(out, open)
+}
+
+/// The union of the boxes of `refs`.
+fn union_of(refs: &[Ref]) -> Aabb {
+    let mut union = Bounds::EMPTY;
+    for r in refs {
+        union.add(r);
+    }
+    union.aabb()
 }
 
 /// Whether a node of `n` triangles at `depth` may be split at all.
@@ -520,37 +532,24 @@ fn make_leaf(node: &BoxNode, scratch: &mut Scratch, depth: u32, out: &mut Layout
     ids.clear();
     ids.extend(scratch.refs[node.refs.clone()].iter().map(Ref::id));
     ids.sort_unstable();
-    out.push_leaf(depth, ids, node.union)
+    let union = node
+        .union
+        .unwrap_or_else(|| union_of(&scratch.refs[node.refs.clone()]));
+    out.push_leaf(depth, ids, union)
 }
 
-/// Where a triangle goes at a split.
-#[derive(Clone, Copy, PartialEq)]
-enum Side {
-    Below,
-    Above,
-    /// Straddles the plane: clipped into both children.
-    Both,
-}
-
-/// Which side of the plane at `p` on a split's axis a box spanning `[lo, hi]` there lies on
-/// (Wald & Havran §4.3): a flat box by its side of the plane, and in the plane by the split's
-/// choice; any other box below if it ends at or before `p`, above if it starts at or after it,
-/// else on both sides.
+/// Which sides of the plane at `p` on a split's axis a box spanning `[lo, hi]` there goes to,
+/// as `(below, above)` (Wald & Havran §4.3): a flat box to its side of the plane, and in the
+/// plane to the split's choice; any other box below if it ends at or before `p`, above if it
+/// starts at or after it, else to neither: it straddles the plane and is clipped into both.
+/// Without branches, as the sides come as good as at random: a box both ending by `p` and
+/// starting from it lies in the plane (`lo ≤ hi`).
 #[inline(always)]
-fn side_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> Side {
-    if lo == hi {
-        if lo < p || (lo == p && planar_below) {
-            Side::Below
-        } else {
-            Side::Above
-        }
-    } else if hi <= p {
-        Side::Below
-    } else if lo >= p {
-        Side::Above
-    } else {
-        Side::Both
-    }
+fn sides_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> (bool, bool) {
+    let (ends_by, starts_from) = (hi <= p, lo >= p);
+    let below = ends_by & (!starts_from | planar_below);
+    let above = starts_from & (!ends_by | !planar_below);
+    (below, above)
 }
 
 /// Splits `node` at `split` (which has triangles on both sides): one-sided triangles go to
@@ -565,16 +564,20 @@ fn split_boxes(
     split: &Split,
     scratch: &mut Scratch,
 ) -> (BoxNode, BoxNode) {
-    // The axis as a constant, so that coordinates along it are picked without a branch.
-    match split.axis {
-        0 => split_boxes_on::<0>(context, node, split, scratch),
-        1 => split_boxes_on::<1>(context, node, split, scratch),
-        _ => split_boxes_on::<2>(context, node, split, scratch),
+    // The axis as a constant, so that coordinates along it are picked without a branch. The
+    // children's unions only where they may be binned: a node's children are no larger.
+    match (split.axis, node.refs.len() > context.exact_max) {
+        (0, true) => split_boxes_on::<0, true>(context, node, split, scratch),
+        (1, true) => split_boxes_on::<1, true>(context, node, split, scratch),
+        (_, true) => split_boxes_on::<2, true>(context, node, split, scratch),
+        (0, false) => split_boxes_on::<0, false>(context, node, split, scratch),
+        (1, false) => split_boxes_on::<1, false>(context, node, split, scratch),
+        (_, false) => split_boxes_on::<2, false>(context, node, split, scratch),
     }
 }
 
-/// [`split_boxes`] on axis `AXIS` (`split.axis`).
-fn split_boxes_on<const AXIS: usize>(
+/// [`split_boxes`] on axis `AXIS` (`split.axis`), with the children's unions if `UNIONS`.
+fn split_boxes_on<const AXIS: usize, const UNIONS: bool>(
     context: &Context<'_>,
     node: &BoxNode,
     split: &Split,
@@ -598,45 +601,45 @@ fn split_boxes_on<const AXIS: usize>(
     if refs.len() < above_first + n {
         refs.resize(above_first + n, Ref::zeroed());
     }
-    straddling.clear();
-    let (mut below_end, mut above_end) = (first, above_first);
-    let (mut below_union, mut above_union) = (Bounds::EMPTY, Bounds::EMPTY);
+    if straddling.len() < n {
+        straddling.resize(n, 0);
+    }
+    let (refs, straddling) = (&mut refs[..], &mut straddling[..n]);
+    let (mut below_end, mut above_end, mut straddlers) = (first, above_first, 0);
+    // Without a branch on the sides, which come as good as at random: a reference is written
+    // to the end of the child it goes to (to the below child's, unkept, when it straddles; that
+    // slot's reference has been read), and its id to the straddlers' end (kept when it does).
     for i in node.refs.clone() {
         let r = refs[i];
-        let (lo, hi) = r.span(axis);
-        match side_of(lo, hi, p, split.planar_below) {
-            Side::Below => {
-                refs[below_end] = r;
-                below_end += 1;
-                below_union.add(&r);
-            }
-            Side::Above => {
-                refs[above_end] = r;
-                above_end += 1;
-                above_union.add(&r);
-            }
-            // Clipped below, once the loads of their triangles, random in the mesh, are under
-            // way.
-            Side::Both => {
-                prefetch(&context.triangles[r.id() as usize]);
-                straddling.push(r.id());
-            }
-        }
+        // From the vectors' lanes, so that the reference stays in two vector registers.
+        let (lo, hi) = (r.lo()[AXIS], r.hi()[AXIS]);
+        let (below, above) = sides_of(lo, hi, p, split.planar_below);
+        refs[if above { above_end } else { below_end }] = r;
+        below_end += usize::from(below);
+        above_end += usize::from(above);
+        straddling[straddlers] = r.id();
+        // At most one side: a box both ending by `p` and starting from it lies in the plane.
+        straddlers += 1 - usize::from(below) - usize::from(above);
     }
-    for &id in straddling.iter() {
+    let straddling = &straddling[..straddlers];
+    // Triangles are random in the mesh: each is prefetched a few clips ahead.
+    const AHEAD: usize = 4;
+    for &id in straddling.iter().take(AHEAD) {
+        prefetch(&context.triangles[id as usize]);
+    }
+    for (k, &id) in straddling.iter().enumerate() {
+        if let Some(&next) = straddling.get(k + AHEAD) {
+            prefetch(&context.triangles[next as usize]);
+        }
         let tri = &context.triangles[id as usize];
         let [below_part, above_part] = split_clipped_bounds::<AXIS>(tri, &node.cell, p);
         if let Some(part) = below_part {
-            let r = Ref::new(id, &part);
-            refs[below_end] = r;
+            refs[below_end] = Ref::new(id, &part);
             below_end += 1;
-            below_union.add(&r);
         }
         if let Some(part) = above_part {
-            let r = Ref::new(id, &part);
-            refs[above_end] = r;
+            refs[above_end] = Ref::new(id, &part);
             above_end += 1;
-            above_union.add(&r);
         }
     }
     *top = above_end;
@@ -644,12 +647,12 @@ fn split_boxes_on<const AXIS: usize>(
         BoxNode {
             refs: first..below_end,
             cell: below_cell,
-            union: below_union.aabb(),
+            union: UNIONS.then(|| union_of(&refs[first..below_end])),
         },
         BoxNode {
             refs: above_first..above_end,
             cell: above_cell,
-            union: above_union.aabb(),
+            union: UNIONS.then(|| union_of(&refs[above_first..above_end])),
         },
     )
 }
@@ -691,6 +694,26 @@ mod tests {
         BuildStats {
             build_time: std::time::Duration::ZERO,
             ..t.stats
+        }
+    }
+
+    #[test]
+    fn sides_follow_wald_and_havrans_classification() {
+        // Boxes [lo, hi] against the plane at 1, the planar ones sent either way.
+        let cases = [
+            ((0.0, 0.5), [(true, false), (true, false)]),
+            ((0.0, 1.0), [(true, false), (true, false)]),
+            ((0.0, 2.0), [(false, false), (false, false)]),
+            ((1.0, 2.0), [(false, true), (false, true)]),
+            ((1.5, 2.0), [(false, true), (false, true)]),
+            ((0.5, 0.5), [(true, false), (true, false)]),
+            ((1.5, 1.5), [(false, true), (false, true)]),
+            ((1.0, 1.0), [(true, false), (false, true)]),
+        ];
+        for ((lo, hi), sides) in cases {
+            for (planar_below, want) in [true, false].into_iter().zip(sides) {
+                assert_eq!(sides_of(lo, hi, 1.0, planar_below), want, "[{lo}, {hi}]");
+            }
         }
     }
 
