@@ -564,20 +564,16 @@ fn split_boxes(
     split: &Split,
     scratch: &mut Scratch,
 ) -> (BoxNode, BoxNode) {
-    // The axis as a constant, so that coordinates along it are picked without a branch. The
-    // children's unions only where they may be binned: a node's children are no larger.
-    match (split.axis, node.refs.len() > context.exact_max) {
-        (0, true) => split_boxes_on::<0, true>(context, node, split, scratch),
-        (1, true) => split_boxes_on::<1, true>(context, node, split, scratch),
-        (_, true) => split_boxes_on::<2, true>(context, node, split, scratch),
-        (0, false) => split_boxes_on::<0, false>(context, node, split, scratch),
-        (1, false) => split_boxes_on::<1, false>(context, node, split, scratch),
-        (_, false) => split_boxes_on::<2, false>(context, node, split, scratch),
+    // The axis as a constant, so that coordinates along it are picked without a branch.
+    match split.axis {
+        0 => split_boxes_on::<0>(context, node, split, scratch),
+        1 => split_boxes_on::<1>(context, node, split, scratch),
+        _ => split_boxes_on::<2>(context, node, split, scratch),
     }
 }
 
-/// [`split_boxes`] on axis `AXIS` (`split.axis`), with the children's unions if `UNIONS`.
-fn split_boxes_on<const AXIS: usize, const UNIONS: bool>(
+/// [`split_boxes`] on axis `AXIS` (`split.axis`).
+fn split_boxes_on<const AXIS: usize>(
     context: &Context<'_>,
     node: &BoxNode,
     split: &Split,
@@ -643,16 +639,18 @@ fn split_boxes_on<const AXIS: usize, const UNIONS: bool>(
         }
     }
     *top = above_end;
+    // The children's unions only where they may be binned: a node's children are no larger.
+    let binned = n > context.exact_max;
     (
         BoxNode {
             refs: first..below_end,
             cell: below_cell,
-            union: UNIONS.then(|| union_of(&refs[first..below_end])),
+            union: binned.then(|| union_of(&refs[first..below_end])),
         },
         BoxNode {
             refs: above_first..above_end,
             cell: above_cell,
-            union: UNIONS.then(|| union_of(&refs[above_first..above_end])),
+            union: binned.then(|| union_of(&refs[above_first..above_end])),
         },
     )
 }

@@ -198,7 +198,7 @@ const DEDUP_MIN: usize = 16;
 /// Per axis, a direct-mapped table of the positions [`ExactPlanes::fill`] has met in a node,
 /// as f32; an empty slot holds [`UNSEEN`]. Allocated at the first call that needs it.
 #[derive(Default)]
-struct SeenPositions(Vec<[f32; COUNTED_PLANES]>);
+struct SeenPositions(Option<Box<[[f32; COUNTED_PLANES]; 3]>>);
 
 /// An empty slot of [`SeenPositions`]: a NaN, equal to no position.
 const UNSEEN: f32 = f32::NAN;
@@ -262,12 +262,10 @@ impl ExactPlanes {
     fn fill_with<const DEDUP: bool>(&mut self, refs: &[Ref], cell: &Aabb) {
         assert!(refs.len() <= COUNTED_SEARCH_MAX);
         let (cell_lo, cell_hi) = (Vec3A::from(cell.min), Vec3A::from(cell.max));
-        if self.seen.0.is_empty() {
-            self.seen.0 = vec![[UNSEEN; COUNTED_PLANES]; 3];
-        }
-        let [seen_x, seen_y, seen_z] = &mut self.seen.0[..] else {
-            unreachable!("three axes")
-        };
+        let [seen_x, seen_y, seen_z] = &mut **self
+            .seen
+            .0
+            .get_or_insert_with(|| Box::new([[UNSEEN; COUNTED_PLANES]; 3]));
         // Slots used: a power of two, from 2 · refs.len() (the fewest instructions on the
         // dragon, against 1 and 4 per box) up to `COUNTED_PLANES`, so `% COUNTED_PLANES` never
         // wraps a slot, and spares the bounds checks.
@@ -718,13 +716,13 @@ mod tests {
             assert_eq!((cut.axis, unkey(cut.pos_key)), (0, union.max.x), "{isa}");
             assert_eq!((cut.below_count, cut.above_count), (100, 0), "{isa}");
         }
-        let cut = costs.best_binned_split(Isa::Scalar, &bins, &wide).unwrap();
-        assert_eq!((cut.below_count, cut.above_count), (100, 0));
         // In the union itself, the plane between the clusters, with exact counts there.
-        let split = costs.best_binned_split(Isa::Scalar, &bins, &union).unwrap();
-        let p = unkey(split.pos_key);
-        assert_eq!(split.axis, 0);
-        assert!(p > 0.1 && p < 0.9, "{p}");
-        assert_eq!((split.below_count, split.above_count), (50, 50));
+        for isa in Isa::available() {
+            let split = costs.best_binned_split(isa, &bins, &union).unwrap();
+            let p = unkey(split.pos_key);
+            assert_eq!(split.axis, 0, "{isa}");
+            assert!(p > 0.1 && p < 0.9, "{isa}: {p}");
+            assert_eq!((split.below_count, split.above_count), (50, 50), "{isa}");
+        }
     }
 }
