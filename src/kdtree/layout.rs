@@ -49,7 +49,12 @@ impl Layout {
     }
 
     /// Appends a leaf at `depth` holding `ids` (in the order given) inside `bounds`.
-    pub fn push_leaf(&mut self, depth: u32, ids: &[u32], bounds: Aabb) -> Result<()> {
+    pub fn push_leaf(
+        &mut self,
+        depth: u32,
+        ids: impl ExactSizeIterator<Item = u32>,
+        bounds: Aabb,
+    ) -> Result<()> {
         let record = u32::try_from(self.records.len())
             .ok()
             .filter(|&r| r <= MAX_NODE_INDEX)
@@ -60,7 +65,7 @@ impl Layout {
             .checked_add(count)
             .ok_or_else(|| too_big("triangle references"))?;
         self.max_depth = self.max_depth.max(depth);
-        self.ids.extend_from_slice(ids);
+        self.ids.extend(ids);
         self.records.push(LeafRecord {
             first,
             count,
