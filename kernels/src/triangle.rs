@@ -34,7 +34,10 @@ impl Triangle {
 ///
 /// A degenerate triangle has `n = 0`; the test then computes `1 / 0 = inf` and `0 * inf = NaN`,
 /// and every comparison with NaN fails, so it never reports a hit.
-#[repr(C)]
+///
+/// Aligned to 16 bytes, which its 48 bytes fill without padding, so that a buffer of other
+/// 16-byte records (such as a builder's scratch) can be recycled for an array of them.
+#[repr(C, align(16))]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct KsTriangle {
     /// First vertex.
