@@ -128,14 +128,18 @@ fn reserve_stack(refs: &mut Vec<Ref>, len: usize) {
 
 impl Scratch {
     /// Hands the reference stack, which the build of the nodes no longer needs, to a tree as
-    /// the memory of its Kensler–Shirley triangles `ks`, and takes theirs in exchange.
+    /// the memory of its `needed` Kensler–Shirley triangles `ks`, and takes theirs in exchange.
     ///
     /// For a builder about to be dropped ([`KdTree::build`]): a process's first build otherwise
     /// writes its 48 bytes per triangle reference on fresh pages from the system, each costing
     /// a page fault, while the stack's pages (32 bytes per reference at its deepest) have been
     /// written already. On the dragon that saves 1,700 of 8,860 page faults. Nothing happens
-    /// if the stack's capacity is not a whole number of triangles.
-    fn hand_over_stack(&mut self, ks: &mut Vec<KsTriangle>) {
+    /// when the stack cannot hold `needed` triangles (growing it would copy its stale bytes
+    /// to a new allocation) or its capacity is not a whole number of triangles.
+    fn hand_over_stack(&mut self, ks: &mut Vec<KsTriangle>, needed: usize) {
+        if self.refs.capacity() / REFS_PER_KS_PAIR * 2 < needed {
+            return;
+        }
         let mut stack = std::mem::take(&mut self.refs);
         stack.clear();
         match bytemuck::allocation::try_cast_vec::<Ref, KsTriangle>(stack) {
@@ -303,18 +307,18 @@ impl KdTreeBuilder {
     /// # Errors
     /// As [`KdTree::build`]; `tree` is then left as it was.
     pub fn rebuild(&mut self, tree: &mut KdTree, mesh: &Mesh, params: &BuildParams) -> Result<()> {
-        self.build_into(tree, mesh, params, |_, _| {})
+        self.build_into(tree, mesh, params, |_, _, _| {})
     }
 
-    /// [`KdTreeBuilder::rebuild`], with `recycle(scratch, ks_triangles)` called between the
-    /// build of the nodes and the layout of the triangles, when the tree's Kensler–Shirley
-    /// triangles need more memory than they have.
+    /// [`KdTreeBuilder::rebuild`], with `recycle(scratch, ks_triangles, needed)` called between
+    /// the build of the nodes and the layout of the triangles, when the tree's `needed`
+    /// Kensler–Shirley triangles need more memory than they have.
     fn build_into(
         &mut self,
         tree: &mut KdTree,
         mesh: &Mesh,
         params: &BuildParams,
-        recycle: impl FnOnce(&mut Scratch, &mut Vec<KsTriangle>),
+        recycle: impl FnOnce(&mut Scratch, &mut Vec<KsTriangle>, usize),
     ) -> Result<()> {
         params.validate()?;
         let started = Instant::now();
@@ -354,7 +358,7 @@ impl KdTreeBuilder {
         tree.triangles
             .extend(tree.ids.iter().map(|&id| mesh_triangles[id as usize]));
         if tree.ks_triangles.capacity() < tree.ids.len() {
-            recycle(scratch, &mut tree.ks_triangles);
+            recycle(scratch, &mut tree.ks_triangles, tree.ids.len());
         }
         tree.ks_triangles.clear();
         tree.ks_triangles
@@ -814,7 +818,11 @@ mod tests {
         assert!(capacity >= 1000 && capacity.is_multiple_of(REFS_PER_KS_PAIR));
         let mut ks = vec![KsTriangle::zeroed(); 4];
         let theirs = ks.as_ptr() as usize;
-        scratch.hand_over_stack(&mut ks);
+        // More triangles than the stack holds: it is kept.
+        scratch.hand_over_stack(&mut ks, capacity);
+        assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 4));
+        assert_eq!(scratch.refs.as_ptr() as usize, stack);
+        scratch.hand_over_stack(&mut ks, 600);
         assert_eq!((ks.as_ptr() as usize, ks.len()), (stack, 0));
         assert_eq!(ks.capacity(), capacity / REFS_PER_KS_PAIR * 2);
         assert_eq!(scratch.refs.as_ptr() as usize, theirs);
@@ -822,7 +830,7 @@ mod tests {
         // A tree's odd capacity cannot hold whole references: the stack is then new.
         let mut ks = Vec::with_capacity(3);
         ks.push(KsTriangle::zeroed());
-        scratch.hand_over_stack(&mut ks);
+        scratch.hand_over_stack(&mut ks, 4);
         assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 0));
         assert_eq!(scratch.refs.capacity(), 0);
         // A tree built by `KdTree::build` is the one a kept builder builds.
