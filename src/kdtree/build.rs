@@ -200,7 +200,7 @@ impl KdTree {
     /// ```
     pub fn build(mesh: &Mesh, params: &BuildParams) -> Result<KdTree> {
         let mut tree = KdTree::empty();
-        KdTreeBuilder::new().build_into(&mut tree, mesh, params, Scratch::hand_over_stack)?;
+        KdTreeBuilder::new().build_into(&mut tree, mesh, params, true)?;
         Ok(tree)
     }
 
@@ -307,18 +307,18 @@ impl KdTreeBuilder {
     /// # Errors
     /// As [`KdTree::build`]; `tree` is then left as it was.
     pub fn rebuild(&mut self, tree: &mut KdTree, mesh: &Mesh, params: &BuildParams) -> Result<()> {
-        self.build_into(tree, mesh, params, |_, _, _| {})
+        self.build_into(tree, mesh, params, false)
     }
 
-    /// [`KdTreeBuilder::rebuild`], with `recycle(scratch, ks_triangles, needed)` called between
-    /// the build of the nodes and the layout of the triangles, when the tree's `needed`
-    /// Kensler–Shirley triangles need more memory than they have.
+    /// [`KdTreeBuilder::rebuild`]; when `hand_over_stack` (the builder is dropped next), the
+    /// tree's Kensler–Shirley triangles may take the builder's reference stack as their memory
+    /// ([`Scratch::hand_over_stack`]) if theirs is too small.
     fn build_into(
         &mut self,
         tree: &mut KdTree,
         mesh: &Mesh,
         params: &BuildParams,
-        recycle: impl FnOnce(&mut Scratch, &mut Vec<KsTriangle>, usize),
+        hand_over_stack: bool,
     ) -> Result<()> {
         params.validate()?;
         let started = Instant::now();
@@ -357,8 +357,8 @@ impl KdTreeBuilder {
         tree.triangles.clear();
         tree.triangles
             .extend(tree.ids.iter().map(|&id| mesh_triangles[id as usize]));
-        if tree.ks_triangles.capacity() < tree.ids.len() {
-            recycle(scratch, &mut tree.ks_triangles, tree.ids.len());
+        if hand_over_stack && tree.ks_triangles.capacity() < tree.ids.len() {
+            scratch.hand_over_stack(&mut tree.ks_triangles, tree.ids.len());
         }
         tree.ks_triangles.clear();
         tree.ks_triangles
