@@ -312,7 +312,6 @@ impl<L: Lanes> Beam<L> {
             }
             (wx[pl], wy[pl], wz[pl]) = (world[0], world[1], world[2]);
         }
-        let at = |flat: &[f32; FLAT], v: usize| l.load(&flat[(v * w).min(FLAT - w)..]);
         let corner_a = [[y00, y01, y01, y00], [z00, z00, z01, z01]];
         let corner_d = [
             [y10 - y00, y11 - y01, y11 - y01, y10 - y00],
@@ -324,10 +323,10 @@ impl<L: Lanes> Beam<L> {
             sign,
             corner,
             dx,
-            wx: core::array::from_fn(|v| at(&wx, v)),
-            wy: core::array::from_fn(|v| at(&wy, v)),
-            wz: core::array::from_fn(|v| at(&wz, v)),
-            e: core::array::from_fn(|v| at(&e, v)),
+            wx: plane_vectors_of(l, &wx),
+            wy: plane_vectors_of(l, &wy),
+            wz: plane_vectors_of(l, &wz),
+            e: plane_vectors_of(l, &e),
             e_flat: e,
             far_offset: sign * corner.x,
             plane_vectors,
@@ -558,4 +557,19 @@ enum Aperture {
 fn group(mask: u64, g: usize, w: usize) -> u32 {
     let lanes = if w >= 64 { u64::MAX } else { (1u64 << w) - 1 };
     ((mask >> (g * w)) & lanes) as u32
+}
+
+/// The plane coefficients `flat` as vectors of `L`'s width: vector `v` from plane `v · width`
+/// on, those past [`FLAT`] the last whole vector (their lanes are never read).
+///
+/// A function and a loop, not `array::from_fn`, whose closure can stay out of line without the
+/// ISA's target features, calling the vector intrinsics out of line.
+#[inline(always)]
+fn plane_vectors_of<L: Lanes>(l: L, flat: &[f32; FLAT]) -> [L::F32; PLANES] {
+    let w = L::WIDTH;
+    let mut vectors = [l.splat(0.0); PLANES];
+    for (v, vector) in vectors.iter_mut().enumerate() {
+        *vector = l.load(&flat[(v * w).min(FLAT - w)..]);
+    }
+    vectors
 }

@@ -123,7 +123,12 @@ fn count_block<L: Lanes, const V: usize>(
     pos: &[f32],
     lists: [&mut [f32]; 3],
 ) {
-    let p: [L::F32; V] = core::array::from_fn(|v| l.load(&pos[v * L::WIDTH..]));
+    // A loop, not `array::from_fn`, whose closure may stay out of line, without the ISA's
+    // target features.
+    let mut p = [l.splat(0.0); V];
+    for (v, p) in p.iter_mut().enumerate() {
+        *p = l.load(&pos[v * L::WIDTH..]);
+    }
     let mut counts = [[l.zero_counts(); V]; 3];
     for (lo, hi) in boxes {
         let (lo, hi) = (l.splat(lo), l.splat(hi));

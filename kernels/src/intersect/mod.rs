@@ -101,5 +101,5 @@ pub(crate) fn sub3<F: LaneF32>(a: [F; 3], b: [F; 3]) -> [F; 3] {
 /// `v` broadcast to every lane, per component.
 #[inline(always)]
 pub(crate) fn splat3<L: Lanes>(l: L, v: Vec3) -> [L::F32; 3] {
-    v.to_array().map(|c| l.splat(c))
+    [l.splat(v.x), l.splat(v.y), l.splat(v.z)]
 }

@@ -205,7 +205,7 @@ impl<L: Lanes> WatertightLanes<L> {
     /// Prepares `rays`; lane `i` makes the choices [`WatertightRay::new`] makes for ray `i`.
     #[inline(always)]
     pub fn new(l: L, rays: &LaneRays<L>) -> Self {
-        let a = rays.dir.map(LaneF32::abs);
+        let a = [rays.dir[0].abs(), rays.dir[1].abs(), rays.dir[2].abs()];
         // `dominant_axis` as masks: x when |dx| > |dy| and |dx| > |dz|, y when |dy| >= |dx| and
         // |dy| > |dz|, z otherwise.
         let x_over_y = a[0].gt(a[1]);
@@ -232,10 +232,15 @@ impl<L: Lanes> WatertightLanes<L> {
         ];
         let finite = kz.pick(a).lt(l.splat(f32::INFINITY));
         let nan = l.splat(f32::NAN);
+        let org = |k: &LaneAxis<L>| L::F32::select(finite, k.pick(rays.org), nan);
+        let [kx, ky, kz] = &axes;
         WatertightLanes {
             axes,
-            org: axes.map(|k| L::F32::select(finite, k.pick(rays.org), nan)),
-            shear: shear_of(axes.map(|k| k.pick(rays.dir)), l.splat(1.0)),
+            org: [org(kx), org(ky), org(kz)],
+            shear: shear_of(
+                [kx.pick(rays.dir), ky.pick(rays.dir), kz.pick(rays.dir)],
+                l.splat(1.0),
+            ),
         }
     }
 
@@ -243,7 +248,8 @@ impl<L: Lanes> WatertightLanes<L> {
     #[inline(always)]
     fn project(&self, l: L, p: Vec3) -> [L::F32; 3] {
         let p = splat3(l, p);
-        let a = [0, 1, 2].map(|i| self.axes[i].pick(p) - self.org[i]);
+        let ([kx, ky, kz], [ox, oy, oz]) = (&self.axes, self.org);
+        let a = [kx.pick(p) - ox, ky.pick(p) - oy, kz.pick(p) - oz];
         shear_vertex(a, &self.shear)
     }
 
@@ -254,7 +260,11 @@ impl<L: Lanes> WatertightLanes<L> {
     /// functions one by one (rare: the origin projects exactly onto an edge line).
     #[inline(always)]
     pub fn intersect(&self, l: L, tri: &Triangle, tmin: L::F32, tmax: L::F32) -> LaneHits<L> {
-        let [a, b, c] = [tri.v0, tri.v1, tri.v2].map(|p| self.project(l, p));
+        let [a, b, c] = [
+            self.project(l, tri.v0),
+            self.project(l, tri.v1),
+            self.project(l, tri.v2),
+        ];
         let zero = l.splat(0.0);
         let mut e = edge_functions(&a, &b, &c);
         let on_edge = e[0].eq(zero) | e[1].eq(zero) | e[2].eq(zero);
@@ -301,5 +311,6 @@ fn edge_functions_f64_lanes<L: Lanes>(
             o[i] = v;
         }
     }
-    out.map(|o| l.load(&o))
+    let [u, v, w] = &out;
+    [l.load(u), l.load(v), l.load(w)]
 }
