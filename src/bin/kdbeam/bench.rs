@@ -60,6 +60,7 @@ pub(crate) struct Row {
     pub(crate) mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
+    /// NaN (JSON `null`) when the run measures no scalar path (`--packet` without 1).
     speedup_vs_scalar: f64,
 }
 
@@ -217,7 +218,7 @@ pub(crate) fn print_json_or(
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>7} {:>9.2} {:>9} {:>8.2}x",
+            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>7} {:>9.2} {:>9} {:>9}",
             r.scene,
             r.rays,
             r.isa,
@@ -225,14 +226,19 @@ fn print_row(r: &Row, json: bool) {
             r.culling,
             r.threads,
             r.mrays_per_s,
-            if r.tests_per_ray.is_nan() {
-                "-".to_string()
-            } else {
-                format!("{:.2}", r.tests_per_ray)
-            },
-            r.speedup_vs_scalar
+            or_dash(r.tests_per_ray, |t| format!("{t:.2}")),
+            or_dash(r.speedup_vs_scalar, |x| format!("{x:.2}x")),
         )
     })
+}
+
+/// `value` formatted, or `-` when it was not measured (NaN).
+fn or_dash(value: f64, format: impl FnOnce(f64) -> String) -> String {
+    if value.is_nan() {
+        "-".into()
+    } else {
+        format(value)
+    }
 }
 
 /// Median Mrays/s over `args.reps` timed runs after one warm-up, and tests per ray.
