@@ -1,8 +1,10 @@
 //! The command line as a user runs it: the README's main job, and the bench table's columns
 //! when a run leaves a baseline out.
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
+
+mod common;
+use common::TempFile;
 
 /// Runs the `kdbeam` binary with `args`, one worker thread, and returns its output, after
 /// checking that it succeeded.
@@ -20,21 +22,21 @@ fn kdbeam(args: &[&str]) -> Output {
     out
 }
 
-/// A file name in the system's temporary folder, unique to this process and `name`.
-fn temporary(name: &str) -> PathBuf {
-    std::env::temp_dir().join(format!("kdbeam-cli-{}-{name}", std::process::id()))
-}
-
 #[test]
 fn render_writes_a_png_of_the_default_scene_and_prints_its_statistics() {
-    let png = temporary("default.png");
-    let out = kdbeam(&["render", "--size", "64x48", "--out", png.to_str().unwrap()]);
+    let png = TempFile::new("default.png");
+    let out = kdbeam(&[
+        "render",
+        "--size",
+        "64x48",
+        "--out",
+        png.path().to_str().unwrap(),
+    ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     for needle in ["kd-tree", "Mrays/s", "tests/ray", "eliminated"] {
         assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}");
     }
     let bytes = std::fs::read(&png).expect("render wrote the PNG");
-    std::fs::remove_file(&png).ok();
     let decoder = png::Decoder::new(bytes.as_slice());
     let info = decoder.read_info().expect("a valid PNG").info().clone();
     assert_eq!((info.width, info.height), (64, 48));

@@ -2,49 +2,16 @@
 //! plain or gzip-compressed, gives the right triangles; the shared scenes load with their counts.
 
 use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use flate2::write::GzEncoder;
 use kdbeam::scene::{load_obj, shared_scene, shared_scenes_dir, SHARED_SCENES};
 use kdbeam::{Error, Mesh};
 
-/// A file in a directory of its own under the system's temporary directory, removed on drop.
-struct TempFile {
-    path: PathBuf,
-}
-
-impl AsRef<Path> for TempFile {
-    fn as_ref(&self) -> &Path {
-        &self.path
-    }
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if let Some(dir) = self.path.parent() {
-            // Best effort: a leftover file in the temporary directory is harmless.
-            let _ = std::fs::remove_dir_all(dir);
-        }
-    }
-}
-
-/// Writes `bytes` to a fresh file named `name` in a directory unique to this process and call.
-fn temp_file(name: &str, bytes: &[u8]) -> TempFile {
-    static COUNTER: AtomicUsize = AtomicUsize::new(0);
-    let dir = std::env::temp_dir().join(format!(
-        "kdbeam-loader-{}-{}",
-        std::process::id(),
-        COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    std::fs::create_dir_all(&dir).expect("create a temporary directory");
-    let path = dir.join(name);
-    std::fs::write(&path, bytes).expect("write a temporary file");
-    TempFile { path }
-}
+mod common;
+use common::TempFile;
 
 fn load_text(text: &str) -> Result<Mesh, Error> {
-    load_obj(temp_file("test.obj", text.as_bytes()))
+    load_obj(TempFile::with_bytes("test.obj", text.as_bytes()))
 }
 
 fn gzip(bytes: &[u8]) -> Vec<u8> {
@@ -203,7 +170,7 @@ fn truncated_gzip_is_a_parse_error() {
     let compressed = gzip(big_obj().as_bytes());
     // Cut inside the deflate stream, and cut only the 8-byte trailer (CRC and size).
     for keep in [compressed.len() / 2, compressed.len() - 8, 5] {
-        match load_obj(temp_file("cut.obj.gz", &compressed[..keep])) {
+        match load_obj(TempFile::with_bytes("cut.obj.gz", &compressed[..keep])) {
             Err(Error::Parse {
                 line: 0, message, ..
             }) => {
@@ -216,15 +183,15 @@ fn truncated_gzip_is_a_parse_error() {
 
 #[test]
 fn plain_text_named_gz_is_a_parse_error() {
-    let path = temp_file("plain.obj.gz", format!("{TRIANGLE}f 1 2 3\n").as_bytes());
+    let path = TempFile::with_bytes("plain.obj.gz", format!("{TRIANGLE}f 1 2 3\n").as_bytes());
     assert_eq!(parse_line(load_obj(path)), 0);
 }
 
 #[test]
 fn gzip_loads_the_same_mesh_as_plain_text() -> Result<(), Error> {
     let text = big_obj();
-    let plain = load_obj(temp_file("big.obj", text.as_bytes()))?;
-    let compressed = load_obj(temp_file("big.obj.GZ", &gzip(text.as_bytes())))?;
+    let plain = load_obj(TempFile::with_bytes("big.obj", text.as_bytes()))?;
+    let compressed = load_obj(TempFile::with_bytes("big.obj.GZ", &gzip(text.as_bytes())))?;
     assert_eq!(plain.triangle_count(), 2998);
     assert_eq!(plain, compressed);
     Ok(())
@@ -243,7 +210,7 @@ fn objects_and_groups_merge_in_file_order_and_missing_mtl_is_ignored() -> Result
 
 #[test]
 fn mesh_load_reads_files_and_builtin_names() -> Result<(), Error> {
-    let file = Mesh::load(temp_file(
+    let file = Mesh::load(TempFile::with_bytes(
         "one.obj",
         format!("{TRIANGLE}f 1 2 3\n").as_bytes(),
     ))?;

@@ -1,5 +1,8 @@
-//! Scenes and ray sets shared by the integration tests.
+//! Scenes, ray sets and temporary files shared by the integration tests.
 #![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use kdbeam::render::{random_rays, Camera};
 use kdbeam::scene::{self, procedural, rng::Rng};
@@ -98,4 +101,54 @@ pub fn adversarial_rays(mesh: &Mesh, count: usize, seed: u64) -> Vec<Ray> {
 /// `width × height` primary rays of the standard camera.
 pub fn primary_rays(mesh: &Mesh, width: u32, height: u32) -> Vec<Ray> {
     Camera::standard(&mesh.bounds(), width, height).rays()
+}
+
+/// A file in a directory of its own under the system's temporary directory, removed (with the
+/// directory) on drop.
+pub struct TempFile {
+    path: PathBuf,
+}
+
+impl TempFile {
+    /// A path named `name` in a fresh directory unique to this process and call; the file itself
+    /// is not created.
+    pub fn new(name: &str) -> TempFile {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "kdbeam-test-{}-{}",
+            std::process::id(),
+            COUNTER.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir_all(&dir).expect("create a temporary directory");
+        TempFile {
+            path: dir.join(name),
+        }
+    }
+
+    /// A file named `name` holding `bytes`, as [`TempFile::new`].
+    pub fn with_bytes(name: &str, bytes: &[u8]) -> TempFile {
+        let file = TempFile::new(name);
+        std::fs::write(&file.path, bytes).expect("write a temporary file");
+        file
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl AsRef<Path> for TempFile {
+    fn as_ref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if let Some(dir) = self.path.parent() {
+            // Best effort: a leftover file in the temporary directory is harmless.
+            let _ = std::fs::remove_dir_all(dir);
+        }
+    }
 }
