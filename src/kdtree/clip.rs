@@ -474,8 +474,12 @@ fn cut<const AXIS: usize, const N: usize, const M: usize>(
 ) -> Result<[DVec3; M], Cut> {
     let d = v.map(|p| inside::<AXIS>(p, plane, keep_above));
     let kept = kept(&d);
+    // Loops, not `array::from_fn`, whose closure stays out of line (with a bounds check per
+    // vertex).
     if kept == (1 << N) - 1 {
-        return Ok(core::array::from_fn(|k| v[k.min(N - 1)]));
+        let mut polygon = [v[N - 1]; M];
+        polygon[..N].copy_from_slice(v);
+        return Ok(polygon);
     }
     let run =
         Run::of_polygon::<N>(kept).ok_or(if kept == 0 { Cut::Empty } else { Cut::General })?;
@@ -486,14 +490,13 @@ fn cut<const AXIS: usize, const N: usize, const M: usize>(
     } else {
         run.last + N - run.first
     };
-    Ok(core::array::from_fn(|k| match k {
-        _ if k == M - 2 => out,
-        _ if k == M - 1 => back,
-        _ => {
-            let i = run.first + k.min(len);
-            v[if i < N { i } else { i - N }]
-        }
-    }))
+    let mut polygon = [out; M];
+    for (k, p) in polygon[..M - 2].iter_mut().enumerate() {
+        let i = run.first + k.min(len);
+        *p = v[if i < N { i } else { i - N }];
+    }
+    polygon[M - 1] = back;
+    Ok(polygon)
 }
 
 /// [`cut`] by face `face` (as in [`Clip::faces`]) of `cell` grown by `margin`: one branch to

@@ -296,10 +296,8 @@ impl ExactPlanes {
         let (mut len, mut flat) = ([0; 3], BVec3A::FALSE);
         // The `k`-th plane written goes at an index of at most `k`, below `2 · refs.len()`,
         // which is at most `COUNTED_PLANES`: the mask that spares the bounds checks never wraps.
-        let mut pos = self.axes.each_mut().map(|a| {
-            a.make_room(COUNTED_PLANES);
-            <&mut [f32; COUNTED_PLANES]>::try_from(&mut a.pos[..COUNTED_PLANES]).unwrap()
-        });
+        let [x, y, z] = &mut self.axes;
+        let mut pos = [x.counted_room(), y.counted_room(), z.counted_room()];
         for r in refs {
             let (lo, hi) = (r.lo(), r.hi());
             flat |= lo.cmpeq(hi);
@@ -388,6 +386,14 @@ impl AxisCounts {
                 list.resize(room, 0.0);
             }
         }
+    }
+
+    /// Grows the buffers to hold the planes of a counted search; returns its positions. (A
+    /// method, not a closure for `array::map`, which would stay out of line.)
+    #[inline(always)]
+    fn counted_room(&mut self) -> &mut [f32; COUNTED_PLANES] {
+        self.make_room(COUNTED_PLANES);
+        <&mut [f32; COUNTED_PLANES]>::try_from(&mut self.pos[..COUNTED_PLANES]).unwrap()
     }
 
     /// Ends the planes at `len`, padded with NaN positions to a multiple of 8 lanes.
@@ -480,14 +486,19 @@ impl AxisGeometry {
         let inv_area = Vec3A::ONE / (a * b + (a + b) * unit);
         let base = a * b * inv_area;
         let slope = (a + b) * (1.0 / scale) * inv_area;
-        [0, 1, 2].map(|axis| {
-            (unit[axis] > 0.0).then(|| AxisGeometry {
-                base: base[axis],
-                slope: slope[axis],
-                lo: cell.min[axis],
-                hi: cell.max[axis],
-            })
-        })
+        // A loop, not `map`, whose closure stays out of line.
+        let mut axes = [None, None, None];
+        for (axis, g) in axes.iter_mut().enumerate() {
+            if unit[axis] > 0.0 {
+                *g = Some(AxisGeometry {
+                    base: base[axis],
+                    slope: slope[axis],
+                    lo: cell.min[axis],
+                    hi: cell.max[axis],
+                });
+            }
+        }
+        axes
     }
 }
 

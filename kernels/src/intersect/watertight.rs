@@ -131,7 +131,13 @@ impl WatertightRay {
     /// `p − o` permuted to `(kx, ky, kz)`, sheared.
     #[inline(always)]
     fn project(&self, p: Vec3) -> [f32; 3] {
-        let a = [0, 1, 2].map(|i| p[self.axes[i]] - self.org[i]);
+        // Written out, not `array::map`, whose closure stays out of line.
+        let [kx, ky, kz] = self.axes;
+        let a = [
+            p[kx] - self.org[0],
+            p[ky] - self.org[1],
+            p[kz] - self.org[2],
+        ];
         shear_vertex(a, &self.shear)
     }
 
@@ -142,7 +148,11 @@ impl WatertightRay {
     /// NaN never hit (collinear distinct vertices: see the [module](super) documentation).
     #[inline(always)]
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
-        let [a, b, c] = [tri.v0, tri.v1, tri.v2].map(|p| self.project(p));
+        let [a, b, c] = [
+            self.project(tri.v0),
+            self.project(tri.v1),
+            self.project(tri.v2),
+        ];
         let mut e = edge_functions(&a, &b, &c);
         if e.contains(&0.0) {
             e = edge_functions_f64([a[0], a[1]], [b[0], b[1]], [c[0], c[1]]);
