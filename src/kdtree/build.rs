@@ -104,6 +104,10 @@ struct Scratch {
     straddling: Vec<u32>,
     events: [Vec<Event>; 3],
     planes: ExactPlanes,
+    /// A stack of the cuts of empty space still open ([`cut_off_empty_space`]): a node's are
+    /// on top while its subtree is built (a `Vec` per node would cost an allocation for each
+    /// node that has one).
+    open_cuts: Vec<OpenCut>,
 }
 
 /// Three references fill the bytes of two Kensler–Shirley triangles (96), with the same
@@ -395,6 +399,8 @@ impl KdTreeBuilder {
 /// cell is the boxes' union, the mesh's bounds (those of the vertices its triangles use).
 fn root_node(context: &Context<'_>, scratch: &mut Scratch) -> BoxNode {
     let mut union = Bounds::EMPTY;
+    // A build that failed may have left cuts open.
+    scratch.open_cuts.clear();
     let refs = &mut scratch.refs;
     refs.clear();
     reserve_stack(refs, STACK_PER_TRIANGLE * context.triangles.len());
@@ -421,7 +427,7 @@ fn build_subtree(
     out: &mut Layout,
 ) -> Result<()> {
     let n = node.refs.len();
-    let mut open = Vec::new();
+    let open_mark = scratch.open_cuts.len();
     // Large nodes are searched by binning, small ones exactly; the search runs only while the
     // node may be split, so neither is prepared otherwise.
     let searched = may_split(context, n, depth);
@@ -443,7 +449,7 @@ fn build_subtree(
         &mut node.cell,
         &mut depth,
         out,
-        &mut open,
+        &mut scratch.open_cuts,
         |cell| match &bins {
             Some(bins) => context.costs.best_binned_split(context.isa, bins, cell),
             None => context.costs.best_split(context.isa, planes, cell),
@@ -458,7 +464,7 @@ fn build_subtree(
             scratch.top = mark;
         }
     }
-    close_cuts(out, open)
+    close_cuts(out, &mut scratch.open_cuts, open_mark)
 }
 
 /// The union of the boxes of `refs`.
@@ -533,10 +539,10 @@ fn cut_off_empty_space(
     }
 }
 
-/// Closes the cuts [`cut_off_empty_space`] left open, innermost first, once the rest of the
-/// node has been built: each gets its empty above leaf.
-fn close_cuts(out: &mut Layout, open: Vec<OpenCut>) -> Result<()> {
-    for cut in open.into_iter().rev() {
+/// Closes the cuts [`cut_off_empty_space`] left open above `mark` (a node's), innermost first,
+/// once the rest of the node has been built: each gets its empty above leaf.
+fn close_cuts(out: &mut Layout, open: &mut Vec<OpenCut>, mark: usize) -> Result<()> {
+    for cut in open.drain(mark..).rev() {
         out.close_inner(cut.at, cut.axis, cut.position)?;
         out.push_empty_leaf(cut.depth);
     }
