@@ -18,7 +18,10 @@ pub struct Avx {
 
 impl Avx {
     /// The token, if this CPU supports AVX2 and FMA.
+    ///
+    /// Inlined: dispatching a kernel checks it on every call (a cached bit test).
     #[cfg(feature = "std")]
+    #[inline]
     pub fn try_new() -> Option<Self> {
         Isa::Avx2.is_available().then_some(Avx { _proof: () })
     }

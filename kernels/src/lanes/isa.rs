@@ -42,6 +42,7 @@ impl Isa {
 
     /// Can this CPU run it? Detected once per call site by `std_detect`'s cache.
     #[cfg(feature = "std")]
+    #[inline]
     pub fn is_available(self) -> bool {
         match self {
             Isa::Scalar | Isa::Portable => true,
