@@ -238,8 +238,8 @@ impl ExactPlanes {
     /// dragon, 2.97 M of the positions listed in a build but 1.59 M distinct per node and
     /// axis), and each plane listed is counted against every box, then costed once per
     /// [`CostModel::best_split`]. Leaving a repeat out changes no split: equal positions have
-    /// equal counts, hence equal costs, and the cheapest plane's ties go to the lowest
-    /// position, then the lowest index, i.e. the first listed, which stays.
+    /// equal counts, hence equal costs, and are one plane to the cheapest plane's ties, which
+    /// go to the lowest position; the first listed stays.
     ///
     /// How: per axis, a table of 2–4 slots per box ([`SeenPositions`]; emptied at each call)
     /// indexed by a Fibonacci hash of the position's bits. A position equal to its slot's is a
