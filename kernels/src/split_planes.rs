@@ -157,8 +157,9 @@ fn count_block<L: Lanes, const V: usize>(
 /// scalar loop over the planes in any order.
 ///
 /// Ties: the lowest weight, then the lowest position. Planes listed more than once (equal
-/// positions, which have equal counts, hence equal weights and sides) are one plane: which of
-/// their indices is returned is left open, and may differ between ISAs.
+/// positions, which have equal counts, hence equal weights and sides; `-0.0` and `+0.0` are one
+/// position) are one plane: which of their indices is returned is left open, and may differ
+/// between ISAs.
 ///
 /// # Panics
 /// If the slices of `planes` differ in length or are not a multiple of `L::WIDTH` long.
@@ -213,8 +214,8 @@ pub fn cheapest_plane<L: Lanes>(
     }
     // Across the lanes by the same rule: the lowest weight, then among its lanes the lowest
     // position, without a branch. Ties are common: a mesh's neighbouring boxes share faces,
-    // listed once per box, and a branch taken only on a tie cost 3% of the dragon's build
-    // (rebuild A/B) in mispredictions and a third reduction, over the index.
+    // listed once per box. Branching to the tie rule only on a tie, with a third reduction
+    // for the lowest index, cost 3% of the dragon's build (rebuild A/B), in mispredictions.
     let weight = best_weight.reduce_min();
     if weight == f32::INFINITY {
         return None;

@@ -474,8 +474,8 @@ fn cut<const AXIS: usize, const N: usize, const M: usize>(
 ) -> Result<[DVec3; M], Cut> {
     let d = v.map(|p| inside::<AXIS>(p, plane, keep_above));
     let kept = kept(&d);
-    // Loops, not `array::from_fn`, whose closure stays out of line (with a bounds check per
-    // vertex).
+    // Filled in place, not by `array::from_fn`, whose closure stays out of line (with a bounds
+    // check per vertex).
     if kept == (1 << N) - 1 {
         let mut polygon = [v[N - 1]; M];
         polygon[..N].copy_from_slice(v);
