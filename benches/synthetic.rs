@@ -6,10 +6,12 @@
 //! parameters.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use kdbeam::kernels::Dispatch;
 use kdbeam::scene::synthetic::{self, SyntheticParams};
 use kdbeam::trace::leaf::{trace_leaf, Leaf};
+use kdbeam::trace::synthetic::measure;
 use kdbeam::trace::{Culling, Planes};
-use kdbeam::{HitPacket, Isa};
+use kdbeam::HitPacket;
 
 fn synthetic_leaf(c: &mut Criterion) {
     let params = SyntheticParams {
@@ -17,34 +19,30 @@ fn synthetic_leaf(c: &mut Criterion) {
         ..SyntheticParams::default()
     };
     let cell = synthetic::generate(&params).expect("default parameters are valid");
-    let leaf = Leaf {
-        triangles: cell.leaf(),
-        bounds: &cell.bounds,
-        scene_bound: cell.scene_bound,
-    };
+    let leaf = Leaf::from(&cell);
     let potential = (cell.rays() * cell.triangles.len()) as u64;
     let mut hits = vec![HitPacket::default(); cell.packets.len()];
     let mut group = c.benchmark_group("synthetic_ratio4_8x8_jitter4");
     group.throughput(Throughput::Elements(potential));
-    for isa in Isa::available() {
+    for dispatch in Dispatch::available() {
         let mut baseline = f64::NAN;
         for (name, culling) in [
             ("none", Culling::NONE),
             ("4plane", Culling::planes(Planes::Four, false)),
             ("6plane+aperture", Culling::FULL),
         ] {
-            let m = synthetic::measure(&cell, isa, culling, 9, &mut hits).expect("available");
+            let m = measure(&cell, dispatch, culling, 9, &mut hits);
             if culling == Culling::NONE {
                 baseline = m.cycles_per_test;
             }
             eprintln!(
-                "{isa} {name}: {:.3} TSC cycles/test, {:.2}x the baseline, {:.1}% eliminated",
+                "{dispatch} {name}: {:.3} TSC cycles/test, {:.2}x the baseline, {:.1}% eliminated",
                 m.cycles_per_test,
                 baseline / m.cycles_per_test,
                 m.eliminated_percent()
             );
-            group.bench_function(BenchmarkId::new(name, isa), |b| {
-                b.iter(|| trace_leaf(isa, culling, leaf, &cell.packets, &mut hits))
+            group.bench_function(BenchmarkId::new(name, dispatch), |b| {
+                b.iter(|| trace_leaf(dispatch, culling, leaf, &cell.packets, &mut hits))
             });
         }
     }

@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use kdbeam_kernels::lanes::IsaError;
 use kdbeam_kernels::Isa;
 
 /// Everything that can go wrong with user input. Nothing in kdbeam panics on bad input.
@@ -76,3 +77,17 @@ pub enum Error {
 
 /// `Result<T, kdbeam::Error>`.
 pub type Result<T> = std::result::Result<T, Error>;
+
+impl From<IsaError> for Error {
+    /// [`IsaError::Unavailable`] is [`Error::IsaUnavailable`]; a `KDBEAM_ISA` that names no ISA
+    /// is an [`Error::InvalidParameter`] named `KDBEAM_ISA`.
+    fn from(e: IsaError) -> Self {
+        match e {
+            IsaError::Unavailable(isa) => Error::IsaUnavailable(isa),
+            e => Error::InvalidParameter {
+                name: "KDBEAM_ISA",
+                message: e.to_string(),
+            },
+        }
+    }
+}

@@ -6,6 +6,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![deny(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 pub mod aabb;
 pub mod beam;
@@ -19,7 +20,7 @@ pub mod triangle;
 
 pub use aabb::Aabb;
 pub use glam::{DVec3, Vec3};
-pub use lanes::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
+pub use lanes::{Dispatch, Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 pub use packet::{HitPacket, PacketShape, RayPacket, MAX_PACKET_RAYS};
 pub use ray::{Hit, Ray};
 pub use triangle::{KsTriangle, Triangle};

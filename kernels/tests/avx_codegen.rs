@@ -3,14 +3,14 @@
 //! the crate is built for baseline x86-64. The test itself checks the probe computes the right
 //! thing on every ISA. This binary defines no other `LaneTask`, so it holds exactly one instance
 //! of the entry point.
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
 use common::lanes_of;
 use kdbeam_kernels::intersect::watertight::WatertightLanes;
 use kdbeam_kernels::intersect::LaneRays;
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Isa, LaneF32, LaneTask, Lanes, Triangle, Vec3};
 
 /// `x·y + x` and a watertight test of rays straight down onto the unit triangle.
@@ -42,7 +42,9 @@ impl LaneTask for AvxCodegenProbe {
 #[test]
 fn the_probe_computes_the_same_on_every_isa() {
     for isa in Isa::available() {
-        let (fma, t) = run_on(isa, AvxCodegenProbe { x: 3.0, y: 0.5 }).expect("available");
+        let (fma, t) = Dispatch::new(isa)
+            .expect("available")
+            .run(AvxCodegenProbe { x: 3.0, y: 0.5 });
         assert_eq!(fma, vec![4.5; isa.width()], "{isa}");
         assert_eq!(t, vec![2.0; isa.width()], "{isa}");
     }

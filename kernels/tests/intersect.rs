@@ -1,7 +1,7 @@
 //! Kensler–Shirley and watertight ray × triangle tests: against the `f64` oracle, barycentric
 //! reconstruction, degenerate triangles, non-finite rays, and the lane forms against the
 //! single-ray forms on every ISA.
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
@@ -10,7 +10,7 @@ use kdbeam_kernels::intersect::kensler_shirley;
 use kdbeam_kernels::intersect::oracle::OracleRay;
 use kdbeam_kernels::intersect::watertight::{WatertightLanes, WatertightRay};
 use kdbeam_kernels::intersect::{LaneHits, TriangleHit};
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Isa, KsTriangle, LaneMask, LaneTask, Lanes, Ray, Triangle, Vec3};
 
 /// A single-ray intersector under test.
@@ -359,7 +359,7 @@ fn lane_forms_equal_single_ray_forms_bit_for_bit_on_every_isa() {
             tris: tris.clone(),
             rays: rays.clone(),
         };
-        let (failures, compared) = run_on(isa, task).expect("available ISA runs");
+        let (failures, compared) = Dispatch::new(isa).expect("available ISA runs").run(task);
         assert!(compared > 100_000, "{isa}: only {compared} lanes compared");
         assert!(
             failures.is_empty(),

@@ -1,11 +1,11 @@
 //! Every `Lanes` implementation available on this machine against `Scalar`, lane by lane, bit for
 //! bit (NaN payloads excepted), on random values and special values (NaN, ±inf, ±0, denormals).
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
 use common::{lanes_of, same, Rng};
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::{Dispatch, IsaError};
 use kdbeam_kernels::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 
 /// Rounds of random inputs per ISA.
@@ -153,7 +153,9 @@ impl LaneTask for OpsVsScalar {
 fn every_f32_op_matches_scalar_lane_by_lane() {
     let mut ran = Vec::new();
     for isa in Isa::available() {
-        let failures = run_on(isa, OpsVsScalar { seed: 7 }).expect("available ISA runs");
+        let failures = Dispatch::new(isa)
+            .expect("available ISA runs")
+            .run(OpsVsScalar { seed: 7 });
         assert!(
             failures.is_empty(),
             "{} failures, first: {:#?}",
@@ -207,7 +209,9 @@ impl LaneTask for MaskAlgebra {
 #[test]
 fn mask_ops_match_their_bits() {
     for isa in Isa::available() {
-        let failures = run_on(isa, MaskAlgebra).expect("available ISA runs");
+        let failures = Dispatch::new(isa)
+            .expect("available ISA runs")
+            .run(MaskAlgebra);
         assert!(failures.is_empty(), "{failures:#?}");
     }
 }
@@ -226,24 +230,33 @@ impl LaneTask for WhereAmI {
 }
 
 #[test]
-fn run_on_runs_the_task_on_the_requested_isa() {
+fn a_dispatch_runs_the_task_on_its_isa() {
     for isa in Isa::ALL {
-        match run_on(isa, WhereAmI) {
-            Some((ran_on, width, sum)) => {
+        match Dispatch::new(isa) {
+            Ok(dispatch) => {
+                let (ran_on, width, sum) = dispatch.run(WhereAmI);
                 assert!(isa.is_available());
+                assert_eq!(dispatch.isa(), isa);
                 assert_eq!(ran_on, isa);
                 assert_eq!(width, isa.width());
                 assert_eq!(sum, 1.5 * width as f32);
             }
-            None => assert!(!isa.is_available(), "{isa} is available but did not run"),
+            Err(e) => {
+                assert!(!isa.is_available(), "{isa} is available but was refused");
+                assert_eq!(e, IsaError::Unavailable(isa));
+            }
         }
     }
+    let available: Vec<Isa> = Dispatch::available().map(Dispatch::isa).collect();
+    assert_eq!(available, Isa::available().collect::<Vec<_>>());
+    assert_eq!(Dispatch::detect().isa(), Isa::detect());
+    assert_eq!(Dispatch::SCALAR.run(WhereAmI).0, Isa::Scalar);
+    assert_eq!(Dispatch::PORTABLE.run(WhereAmI).0, Isa::Portable);
 }
 
 #[test]
 #[should_panic]
 fn load_from_a_short_slice_panics_instead_of_reading_past_it() {
-    let widest = Isa::detect();
     struct ShortLoad;
     impl LaneTask for ShortLoad {
         type Output = ();
@@ -253,7 +266,7 @@ fn load_from_a_short_slice_panics_instead_of_reading_past_it() {
             l.load(&short);
         }
     }
-    run_on(widest, ShortLoad);
+    Dispatch::detect().run(ShortLoad);
 }
 
 #[test]
@@ -291,7 +304,7 @@ fn counters_count_the_set_lanes_of_every_mask() {
     let mut rng = Rng::new(9);
     let masks: Vec<u32> = (0..1000).map(|_| rng.next_u64() as u32).collect();
     for isa in Isa::available() {
-        let got = run_on(isa, CountSetLanes(&masks)).unwrap();
+        let got = Dispatch::new(isa).unwrap().run(CountSetLanes(&masks));
         let want: Vec<f32> = (0..isa.width())
             .map(|i| masks.iter().filter(|&&m| m >> i & 1 != 0).count() as f32)
             .collect();

@@ -1,11 +1,11 @@
 //! Ray × box clipping: zero direction components with the origin inside, outside and exactly on
 //! a face plane; a brute-force point-sampling reference; lanes against the single-ray form.
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
 use common::{gather, lanes_of, same, Rng};
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::slab::{ray_box, slab_lanes};
 use kdbeam_kernels::{Aabb, Isa, LaneMask, LaneTask, Lanes, Ray, Vec3};
 
@@ -240,7 +240,7 @@ fn lanes_equal_the_single_ray_form_bit_for_bit_on_every_isa() {
             rays: rays.clone(),
             boxes: boxes.clone(),
         };
-        let failures = run_on(isa, task).expect("available ISA runs");
+        let failures = Dispatch::new(isa).expect("available ISA runs").run(task);
         assert!(
             failures.is_empty(),
             "{} failures, first {:#?}",

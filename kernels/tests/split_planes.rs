@@ -1,11 +1,11 @@
 //! The split-plane counts and costs on every ISA against plain loops over boxes and planes:
 //! flat boxes, shared faces, planes on the cell's faces, `±0`, and NaN padding.
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
 use common::Rng;
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
@@ -170,14 +170,14 @@ fn every_isa_counts_and_costs_as_the_definitions() {
             cheapest_found += usize::from(expected.is_some());
             for isa in Isa::available() {
                 // NaN planes count nothing; without flat boxes, nothing is planar.
-                let got = run_on(isa, Count(&c)).unwrap();
+                let got = Dispatch::new(isa).unwrap().run(Count(&c));
                 assert_eq!(got, counts, "{isa}, {n} boxes");
                 // The same plane; with faces on a coarse grid, positions repeat, and which of a
                 // position's indices comes back is left open (their counts are the same).
                 let plane = |c: Option<CheapestPlane>| {
                     c.map(|c| (planes.pos[c.index], c.weight, c.planar_below))
                 };
-                let cheapest = run_on(isa, Cheapest(planes, cell)).unwrap();
+                let cheapest = Dispatch::new(isa).unwrap().run(Cheapest(planes, cell));
                 assert_eq!(plane(cheapest), plane(expected), "{isa}, {n} boxes");
                 if let (Some(got), Some(want)) = (cheapest, expected) {
                     for list in &counts {
@@ -217,6 +217,10 @@ fn a_span_with_no_plane_strictly_inside_has_no_cheapest() {
         empty_factor: 0.5,
     };
     for isa in Isa::available() {
-        assert_eq!(run_on(isa, Cheapest(planes, cell)).unwrap(), None, "{isa}");
+        assert_eq!(
+            Dispatch::new(isa).unwrap().run(Cheapest(planes, cell)),
+            None,
+            "{isa}"
+        );
     }
 }

@@ -3,14 +3,14 @@
 //! it (where `f32` spacing is 1/64), must hit something, through the single-ray watertight test
 //! and its lane form on every ISA. Kensler–Shirley's leaks on the same rays are printed for
 //! comparison (it is not watertight, and is not asserted on).
-#![cfg(feature = "std")] // `run_on` detects the CPU.
+#![cfg(feature = "std")] // `Dispatch::new` detects the CPU.
 
 mod common;
 
 use common::{gather, Rng};
 use kdbeam_kernels::intersect::kensler_shirley;
 use kdbeam_kernels::intersect::watertight::{WatertightLanes, WatertightRay};
-use kdbeam_kernels::lanes::run_on;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Isa, KsTriangle, LaneMask, LaneTask, Lanes, Ray, Triangle, Vec3};
 
 /// Far from the origin: `f32` spacing is 2^-6 in x and z there.
@@ -218,8 +218,9 @@ fn assert_no_leaks(name: &str, mesh: &Mesh, rays: &[Ray]) {
     println!("{name}: {} rays, {} triangles: watertight leaks {single}, Kensler–Shirley leaks {ks_leaks}", rays.len(), tris.len());
     assert_eq!(single, 0, "{name}: single-ray watertight leaks");
     for isa in Isa::available() {
-        let lane_leaks =
-            run_on(isa, CountLaneLeaks { tris: &tris, rays }).expect("available ISA runs");
+        let lane_leaks = Dispatch::new(isa)
+            .expect("available ISA runs")
+            .run(CountLaneLeaks { tris: &tris, rays });
         assert_eq!(lane_leaks, 0, "{name}: {isa} lanes leak");
     }
 }

@@ -41,6 +41,7 @@ use std::time::Instant;
 
 use bytemuck::Zeroable;
 use kdbeam_kernels::lanes::prefetch;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
 
 use super::clip::split_clipped_bounds;
@@ -49,7 +50,6 @@ use super::layout::Layout;
 use super::refs::{Bounds, Ref};
 use super::sah::{Bins, CostModel, ExactPlanes, Split, COUNTED_SEARCH_MAX};
 use super::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
-use crate::trace::{check_isa, isa_from_env};
 use crate::{Error, Mesh, Result};
 
 /// Nodes with more triangles than this build their children in parallel.
@@ -80,8 +80,8 @@ struct Context<'a> {
     /// Exact searches of nodes of at most this many triangles count their planes in SIMD
     /// lanes; larger ones sort and sweep their events.
     count_max: usize,
-    /// The ISA of the plane counting.
-    isa: Isa,
+    /// The ISA of the plane counting and costing.
+    dispatch: Dispatch,
     /// Whether to build children with `rayon::join` (not with a one-thread pool).
     #[cfg(feature = "parallel")]
     parallel: bool,
@@ -253,8 +253,8 @@ pub struct KdTreeBuilder {
     triangles: Vec<Triangle>,
     scratch: Scratch,
     layout: Layout,
-    /// The ISA of the split search's SIMD lanes.
-    isa: Isa,
+    /// The ISA of the split search's SIMD lanes, resolved once, when the builder is made.
+    dispatch: Dispatch,
     /// [`Context::count_max`].
     count_max: usize,
 }
@@ -273,7 +273,7 @@ impl KdTreeBuilder {
             triangles: Vec::new(),
             scratch: Scratch::default(),
             layout: Layout::default(),
-            isa: isa_from_env().ok().flatten().unwrap_or_else(Isa::detect),
+            dispatch: Dispatch::preferred(),
             count_max: COUNTED_SEARCH_MAX,
         }
     }
@@ -284,15 +284,17 @@ impl KdTreeBuilder {
     /// # Errors
     /// [`Error::IsaUnavailable`] if this CPU does not run `isa`.
     pub fn with_isa(self, isa: Isa) -> Result<Self> {
-        Ok(KdTreeBuilder {
-            isa: check_isa(isa)?,
-            ..self
-        })
+        Ok(self.with_dispatch(Dispatch::new(isa)?))
+    }
+
+    /// The same builder with its split search on an ISA already checked.
+    pub fn with_dispatch(self, dispatch: Dispatch) -> Self {
+        KdTreeBuilder { dispatch, ..self }
     }
 
     /// The ISA of the split search.
     pub fn isa(&self) -> Isa {
-        self.isa
+        self.dispatch.isa()
     }
 
     /// The same builder with the exact searches of nodes above `count_max` triangles swept.
@@ -343,7 +345,7 @@ impl KdTreeBuilder {
             triangles: mesh_triangles,
             scratch,
             layout,
-            isa,
+            dispatch,
             count_max,
         } = self;
         mesh_triangles.clear();
@@ -355,7 +357,7 @@ impl KdTreeBuilder {
             depth_limit: params.depth_limit(n),
             exact_max: params.exact_search_max as usize,
             count_max: *count_max,
-            isa: *isa,
+            dispatch: *dispatch,
             #[cfg(feature = "parallel")]
             parallel: rayon::current_num_threads() > 1,
         };
@@ -437,7 +439,7 @@ fn build_subtree(
     if searched && n <= context.exact_max {
         let Scratch { events, planes, .. } = scratch;
         if n <= context.count_max {
-            planes.count(context.isa, refs, &node.cell);
+            planes.count(context.dispatch, refs, &node.cell);
         } else {
             sweep_planes(events, planes, refs, &node.cell);
         }
@@ -451,8 +453,10 @@ fn build_subtree(
         out,
         &mut scratch.open_cuts,
         |cell| match &bins {
-            Some(bins) => context.costs.best_binned_split(context.isa, bins, cell),
-            None => context.costs.best_split(context.isa, planes, cell),
+            Some(bins) => context
+                .costs
+                .best_binned_split(context.dispatch, bins, cell),
+            None => context.costs.best_split(context.dispatch, planes, cell),
         },
     )?;
     match split {

@@ -4,15 +4,15 @@
 
 use glam::{BVec3A, Vec3A, Vec3Swizzles};
 use kdbeam_kernels::lanes::truncate_to_i32;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
-use kdbeam_kernels::{Aabb, Isa, LaneTask, Lanes};
+use kdbeam_kernels::{Aabb, LaneTask, Lanes};
 
 use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
 use super::refs::Ref;
 use super::BuildParams;
-use crate::trace::dispatch::run_on;
 
 /// The SAH costs in units of one traversal step.
 #[derive(Clone, Copy, Debug)]
@@ -58,7 +58,7 @@ impl CostModel {
 
     /// The cheapest plane in `cell` among a small node's [`ExactPlanes`]: every face of its
     /// boxes strictly inside the cell; `None` when there is none (a cell flat on every axis but
-    /// at most one, or extents overflowing f32). Costed in the lanes of `isa`, with the same
+    /// at most one, or extents overflowing f32). Costed in the lanes of `dispatch`'s ISA, with the same
     /// plane, cost and counts on every ISA.
     ///
     /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
@@ -71,8 +71,13 @@ impl CostModel {
     /// Ties: on an axis the lowest weight `λ · (P_b·N_b + P_a·N_a)` wins, then the lowest
     /// position; between axes the lowest cost, then the first axis. The triangles lying in the
     /// plane go below when both sides cost the same.
-    pub fn best_split(&self, isa: Isa, planes: &ExactPlanes, cell: &Aabb) -> Option<Split> {
-        self.cheapest(isa, planes, cell, |axis, index, planar_below| {
+    pub fn best_split(
+        &self,
+        dispatch: Dispatch,
+        planes: &ExactPlanes,
+        cell: &Aabb,
+    ) -> Option<Split> {
+        self.cheapest(dispatch, planes, cell, |axis, index, planar_below| {
             let counts = &planes.axes[axis];
             let planar = counts.planar[index] as u32;
             let (pb, pa) = if planar_below {
@@ -95,7 +100,7 @@ impl CostModel {
     /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
     /// boundaries strictly between the union's faces, and the face above them all
     /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
-    /// [`CostModel::best_split`]. Costed in the lanes of `isa` by the exact search's kernel,
+    /// [`CostModel::best_split`]. Costed in the lanes of `dispatch`'s ISA by the exact search's kernel,
     /// with the same plane on every ISA.
     ///
     /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
@@ -109,8 +114,8 @@ impl CostModel {
     /// the plane of an axis: two weights can round to one cost.) Triangles lying in a plane go
     /// below, except at the union's lower face (where they go above, so that the below side is
     /// empty).
-    pub fn best_binned_split(&self, isa: Isa, bins: &Bins, cell: &Aabb) -> Option<Split> {
-        self.cheapest(isa, bins, cell, |axis, index, _| Split {
+    pub fn best_binned_split(&self, dispatch: Dispatch, bins: &Bins, cell: &Aabb) -> Option<Split> {
+        self.cheapest(dispatch, bins, cell, |axis, index, _| Split {
             axis,
             pos_key: key(bins.pos[axis][index]),
             planar_below: index != 0,
@@ -120,13 +125,13 @@ impl CostModel {
         })
     }
 
-    /// The cheapest of `candidates` in `cell`, costed in the lanes of `isa`, as a split:
+    /// The cheapest of `candidates` in `cell`, costed in the lanes of `dispatch`'s ISA, as a split:
     /// `split(axis, index, planar_below)` describes plane `index` of `axis`, and its cost
     /// `1 + Ci/Ct · weight` is filled in. Between axes the lowest cost wins, then the first.
     #[inline]
     fn cheapest<C: Candidates>(
         &self,
-        isa: Isa,
+        dispatch: Dispatch,
         candidates: &C,
         cell: &Aabb,
         split: impl Fn(usize, usize, bool) -> Split,
@@ -140,7 +145,7 @@ impl CostModel {
                 empty_factor: self.empty_factor,
             })
         });
-        let found = run_on(isa, Cheapest { candidates, cells });
+        let found = dispatch.run(Cheapest { candidates, cells });
         let mut best: Option<Split> = None;
         for (axis, found) in found.into_iter().enumerate() {
             let Some(CheapestPlane {
@@ -219,14 +224,14 @@ struct AxisCounts {
 
 impl ExactPlanes {
     /// Replaces the contents with the planes of the boxes of `refs` strictly inside `cell`,
-    /// counted in the lanes of `isa`. (The empty-space cuts only shrink the cell, so no plane
+    /// counted in the lanes of `dispatch`'s ISA. (The empty-space cuts only shrink the cell, so no plane
     /// outside it can come back.)
     ///
     /// # Panics
     /// If `refs` holds more than [`COUNTED_SEARCH_MAX`] references.
-    pub fn count(&mut self, isa: Isa, refs: &[Ref], cell: &Aabb) {
+    pub fn count(&mut self, dispatch: Dispatch, refs: &[Ref], cell: &Aabb) {
         self.fill(refs, cell);
-        run_on(isa, Count { planes: self, refs });
+        dispatch.run(Count { planes: self, refs });
     }
 
     /// Takes the planes of the boxes of `refs` (at most [`COUNTED_SEARCH_MAX`]) strictly inside
@@ -682,21 +687,21 @@ mod tests {
                 planes.sort_by(|p, q| p.0.total_cmp(&q.0));
                 planes
             };
-            for isa in Isa::available() {
+            for dispatch in Dispatch::available() {
                 let mut counted = ExactPlanes::default();
-                counted.count(isa, &refs, &cell);
+                counted.count(dispatch, &refs, &cell);
                 for axis in 0..3 {
                     let (mut got, want) = (listed(&counted.axes[axis]), listed(&swept.axes[axis]));
                     assert!(want.len() >= 3, "{n}, axis {axis}");
                     if n >= DEDUP_MIN {
-                        assert_eq!(got, want, "{isa}, {n} boxes, axis {axis}");
+                        assert_eq!(got, want, "{dispatch}, {n} boxes, axis {axis}");
                     } else {
                         assert!(
                             got.len() > want.len(),
                             "{n}: repeats are listed below DEDUP_MIN"
                         );
                         got.dedup();
-                        assert_eq!(got, want, "{isa}, {n} boxes, axis {axis}");
+                        assert_eq!(got, want, "{dispatch}, {n} boxes, axis {axis}");
                     }
                     assert_eq!(counted.axes[axis].flat, swept.axes[axis].flat);
                 }
@@ -724,18 +729,26 @@ mod tests {
         let bins = Bins::new(&refs, union);
         // In a cell twice as wide, the empty space above goes first, cut at the union's face.
         let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
-        for isa in Isa::available() {
-            let cut = costs.best_binned_split(isa, &bins, &wide).unwrap();
-            assert_eq!((cut.axis, unkey(cut.pos_key)), (0, union.max.x), "{isa}");
-            assert_eq!((cut.below_count, cut.above_count), (100, 0), "{isa}");
+        for dispatch in Dispatch::available() {
+            let cut = costs.best_binned_split(dispatch, &bins, &wide).unwrap();
+            assert_eq!(
+                (cut.axis, unkey(cut.pos_key)),
+                (0, union.max.x),
+                "{dispatch}"
+            );
+            assert_eq!((cut.below_count, cut.above_count), (100, 0), "{dispatch}");
         }
         // In the union itself, the plane between the clusters, with exact counts there.
-        for isa in Isa::available() {
-            let split = costs.best_binned_split(isa, &bins, &union).unwrap();
+        for dispatch in Dispatch::available() {
+            let split = costs.best_binned_split(dispatch, &bins, &union).unwrap();
             let p = unkey(split.pos_key);
-            assert_eq!(split.axis, 0, "{isa}");
-            assert!(p > 0.1 && p < 0.9, "{isa}: {p}");
-            assert_eq!((split.below_count, split.above_count), (50, 50), "{isa}");
+            assert_eq!(split.axis, 0, "{dispatch}");
+            assert!(p > 0.1 && p < 0.9, "{dispatch}: {p}");
+            assert_eq!(
+                (split.below_count, split.above_count),
+                (50, 50),
+                "{dispatch}"
+            );
         }
     }
 }

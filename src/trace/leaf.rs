@@ -6,7 +6,8 @@
 //! occluder's), the culling of the leaf's triangles in blocks of 64, and the Kensler–Shirley test
 //! of the survivors against every ray, keeping each ray's closest hit.
 
-use kdbeam_kernels::{Aabb, HitPacket, Isa, LaneTask, Lanes, RayPacket};
+use kdbeam_kernels::lanes::Dispatch;
+use kdbeam_kernels::{Aabb, HitPacket, LaneTask, Lanes, RayPacket};
 
 use super::culling::Culling;
 use super::packet::{ClosestHits, KsLanes, LeafVisit, PacketCounters, PacketVisitor};
@@ -23,30 +24,26 @@ pub struct Leaf<'a> {
     pub scene_bound: f32,
 }
 
-/// Traces every packet of `packets` against `leaf` on `isa` with `culling`, closest hits into
-/// `hits` (one per packet; a miss is [`kdbeam_kernels::Hit::NONE`]'s `t = +inf`,
-/// `triangle = u32::MAX`). Returns the ray–triangle tests performed (rays × survivors, summed),
-/// or `None`, running nothing, when this CPU does not run `isa`.
+/// Traces every packet of `packets` against `leaf` on `dispatch`'s ISA with `culling`, closest
+/// hits into `hits` (one per packet; a miss is [`kdbeam_kernels::Hit::NONE`]'s `t = +inf`,
+/// `triangle = u32::MAX`). Returns the ray–triangle tests performed (rays × survivors, summed).
 ///
 /// Only `culling`'s planes, aperture and order matter: the beam is always built around all rays
 /// of a packet (`min_triangles` and `min_rays` still apply). Extra `hits` or `packets` beyond the
 /// shorter of the two are ignored.
 pub fn trace_leaf(
-    isa: Isa,
+    dispatch: Dispatch,
     culling: Culling,
     leaf: Leaf<'_>,
     packets: &[RayPacket],
     hits: &mut [HitPacket],
-) -> Option<u64> {
-    kdbeam_kernels::lanes::run_on(
-        isa,
-        LeafTask {
-            culling,
-            leaf,
-            packets,
-            hits,
-        },
-    )
+) -> u64 {
+    dispatch.run(LeafTask {
+        culling,
+        leaf,
+        packets,
+        hits,
+    })
 }
 
 /// [`trace_leaf`] as a task: instantiated per ISA, everything inlined into its entry point.

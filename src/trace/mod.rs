@@ -4,16 +4,17 @@
 //! ISA and culling.
 
 mod culling;
-pub(crate) mod dispatch;
 pub mod leaf;
 mod packet;
 pub mod reference;
 mod single;
 mod stream;
+pub mod synthetic;
 
 use std::marker::PhantomData;
 
 use kdbeam_kernels::intersect::watertight::WatertightRay;
+use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
@@ -67,36 +68,6 @@ impl std::str::FromStr for Intersector {
     }
 }
 
-/// The ISA `KDBEAM_ISA` forces, if it is set.
-///
-/// # Errors
-/// [`Error::InvalidParameter`] when the variable names no ISA, [`Error::IsaUnavailable`] when
-/// the CPU does not run it.
-pub fn isa_from_env() -> Result<Option<Isa>> {
-    match std::env::var("KDBEAM_ISA") {
-        Ok(name) if !name.trim().is_empty() => {
-            let isa: Isa = name.parse().map_err(|e| Error::InvalidParameter {
-                name: "KDBEAM_ISA",
-                message: format!("{e}, got {name:?}"),
-            })?;
-            check_isa(isa).map(Some)
-        }
-        _ => Ok(None),
-    }
-}
-
-/// `isa` if this CPU runs it.
-///
-/// # Errors
-/// [`Error::IsaUnavailable`] otherwise.
-pub fn check_isa(isa: Isa) -> Result<Isa> {
-    if isa.is_available() {
-        Ok(isa)
-    } else {
-        Err(Error::IsaUnavailable(isa))
-    }
-}
-
 /// Traces rays through a borrowed [`KdTree`].
 ///
 /// ```
@@ -112,7 +83,8 @@ pub fn check_isa(isa: Isa) -> Result<Isa> {
 pub struct Tracer<'t> {
     tree: &'t KdTree,
     intersector: Intersector,
-    isa: Isa,
+    /// Resolved once, here: every packet runs on it without checking the CPU again.
+    dispatch: Dispatch,
     packet: PacketShape,
     culling: Culling,
 }
@@ -121,11 +93,10 @@ impl<'t> Tracer<'t> {
     /// A tracer with the default intersector on the widest ISA this CPU runs, or the one
     /// `KDBEAM_ISA` names when that is valid and available.
     pub fn new(tree: &'t KdTree) -> Self {
-        let isa = isa_from_env().ok().flatten().unwrap_or_else(Isa::detect);
         Tracer {
             tree,
             intersector: Intersector::default(),
-            isa,
+            dispatch: Dispatch::preferred(),
             packet: PacketShape::P8x8,
             culling: Culling::AUTO,
         }
@@ -136,10 +107,12 @@ impl<'t> Tracer<'t> {
     /// # Errors
     /// [`Error::IsaUnavailable`] when this CPU does not run it.
     pub fn with_isa(self, isa: Isa) -> Result<Self> {
-        Ok(Tracer {
-            isa: check_isa(isa)?,
-            ..self
-        })
+        Ok(self.with_dispatch(Dispatch::new(isa)?))
+    }
+
+    /// The same tracer on an ISA already checked.
+    pub fn with_dispatch(self, dispatch: Dispatch) -> Self {
+        Tracer { dispatch, ..self }
     }
 
     /// The same tracer with another intersector.
@@ -178,7 +151,7 @@ impl<'t> Tracer<'t> {
 
     /// The ISA packets run on.
     pub fn isa(&self) -> Isa {
-        self.isa
+        self.dispatch.isa()
     }
 
     /// The intersector.
@@ -289,7 +262,7 @@ impl<'t> Tracer<'t> {
                 counters,
                 test: PhantomData,
             };
-            dispatch::run_on(self.isa, task)
+            self.dispatch.run(task)
         });
     }
 
@@ -328,7 +301,7 @@ impl<'t> Tracer<'t> {
                 counters: &mut counters,
                 test: PhantomData,
             };
-            dispatch::run_on(self.isa, task)
+            self.dispatch.run(task)
         })
     }
 }

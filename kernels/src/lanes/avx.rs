@@ -18,8 +18,6 @@ pub struct Avx {
 
 impl Avx {
     /// The token, if this CPU supports AVX2 and FMA.
-    ///
-    /// Inlined: dispatching a kernel checks it on every call (a cached bit test).
     #[cfg(feature = "std")]
     #[inline]
     pub fn try_new() -> Option<Self> {

@@ -10,14 +10,14 @@
 //! instantiated per ISA by [`Lanes::run`], which enters a `#[target_feature]` function and calls a
 //! [`LaneTask`] inside it: everything inlined there is compiled for that ISA, whatever the build
 //! flags (this is how Embree instantiates one templated kernel per width and ISA, and how the
-//! memchr crate dispatches at run time).
+//! memchr crate dispatches at run time). [`Dispatch`] is an ISA checked once, on which tasks then
+//! run without asking the CPU again.
 
 use core::fmt::Debug;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
-#[cfg(feature = "std")]
 mod dispatch;
 mod isa;
 mod mxcsr;
@@ -33,8 +33,7 @@ mod tsc;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx::{Avx, AvxCount, AvxF32, AvxMask};
-#[cfg(feature = "std")]
-pub use dispatch::run_on;
+pub use dispatch::{Dispatch, IsaError};
 pub use isa::{Isa, ParseIsaError};
 pub use mxcsr::with_flush_to_zero;
 pub use portable::{Portable, PortableCount, PortableF32, PortableMask};

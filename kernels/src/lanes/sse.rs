@@ -17,8 +17,6 @@ pub struct Sse {
 
 impl Sse {
     /// The token, if this CPU supports SSE4.1.
-    ///
-    /// Inlined: dispatching a kernel checks it on every call (a cached bit test).
     #[cfg(feature = "std")]
     #[inline]
     pub fn try_new() -> Option<Self> {

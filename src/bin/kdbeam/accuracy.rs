@@ -122,7 +122,10 @@ pub(crate) fn run(args: AccuracyArgs) -> kdbeam::Result<()> {
     let isas: Vec<Isa> = if args.isa.is_empty() {
         Isa::available().collect()
     } else {
-        let checked = args.isa.iter().map(|&isa| kdbeam::trace::check_isa(isa));
+        let checked = args
+            .isa
+            .iter()
+            .map(|&isa| Ok(kdbeam::kernels::Dispatch::new(isa)?.isa()));
         checked.collect::<kdbeam::Result<_>>()?
     };
     let scenes = if args.scenes.is_empty() {

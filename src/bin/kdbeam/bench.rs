@@ -86,7 +86,7 @@ pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
         args.isa.clone()
     };
     for &isa in &isas {
-        kdbeam::trace::check_isa(isa)?;
+        kdbeam::kernels::Dispatch::new(isa)?;
     }
     let packets = if args.packet.is_empty() {
         vec![1, 4, 8, 16, 64]

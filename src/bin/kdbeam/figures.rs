@@ -57,7 +57,7 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
     };
     std::fs::create_dir_all(&args.out).map_err(io(&args.out))?;
     let isa = match args.isa {
-        Some(isa) => kdbeam::trace::check_isa(isa)?,
+        Some(isa) => kdbeam::kernels::Dispatch::new(isa)?.isa(),
         None => Isa::detect(),
     };
     let base = SyntheticParams {
@@ -259,8 +259,8 @@ fn synthetic_curve(
         let cell = synthetic::generate(params)?;
         let mut cycles = [f64::NAN; 3];
         for (c, (_, culling)) in cycles.iter_mut().zip(CULLINGS) {
-            *c = synthetic::measure(&cell, isa, culling, reps, &mut hits)
-                .ok_or(kdbeam::Error::IsaUnavailable(isa))?
+            let dispatch = kdbeam::kernels::Dispatch::new(isa)?;
+            *c = kdbeam::trace::synthetic::measure(&cell, dispatch, culling, reps, &mut hits)
                 .cycles_per_test;
         }
         println!(

@@ -8,7 +8,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdbeam::render::{self, Camera};
 use kdbeam::scene::{self, procedural};
-use kdbeam::trace::{self, Culling, Intersector};
+use kdbeam::trace::{Culling, Intersector};
 use kdbeam::{BuildParams, Isa, KdTree, Mesh, PacketShape, Tracer};
 
 #[derive(Parser)]
@@ -201,7 +201,7 @@ fn thread_pool(threads: Option<usize>) -> kdbeam::Result<rayon::ThreadPool> {
 }
 
 fn render(args: RenderArgs) -> kdbeam::Result<()> {
-    trace::isa_from_env()?;
+    kdbeam::kernels::Dispatch::from_env()?;
     let pool = thread_pool(args.threads)?;
     pool.install(|| {
         let (name, mesh) = with_spinner("loading scene", || load_scene(args.scene.as_deref()))?;

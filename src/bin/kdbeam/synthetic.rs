@@ -109,12 +109,10 @@ pub(crate) fn run(args: SyntheticArgs) -> kdbeam::Result<()> {
                 let hit_rate = synthetic::hit_rate(&cell);
                 for &isa in &isas {
                     let measure = |c: Culling, hits: &mut Vec<_>| {
-                        synthetic::measure(&cell, isa, c, args.reps, hits).ok_or(
-                            kdbeam::Error::InvalidParameter {
-                                name: "isa",
-                                message: format!("this CPU does not run {isa}"),
-                            },
-                        )
+                        let dispatch = kdbeam::kernels::Dispatch::new(isa)?;
+                        Ok::<_, kdbeam::Error>(kdbeam::trace::synthetic::measure(
+                            &cell, dispatch, c, args.reps, hits,
+                        ))
                     };
                     let baseline = measure(Culling::NONE, &mut hits)?;
                     for c in std::iter::once(Culling::NONE).chain(args.culling.iter().copied()) {
