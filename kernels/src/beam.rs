@@ -28,6 +28,7 @@
 use glam::Vec3;
 
 use crate::aabb::Aabb;
+use crate::groups::{group_bits, group_count};
 use crate::lanes::{LaneF32, LaneMask, Lanes};
 use crate::packet::{RayPacket, MAX_PACKET_RAYS};
 use crate::triangle::Triangle;
@@ -134,7 +135,6 @@ impl<L: Lanes> Beam<L> {
     /// in `F = {x' ∈ [0, dx], ymin(x') ≤ y' ≤ ymax(x'), zmin(x') ≤ z' ≤ zmax(x')}`, the convex
     /// hull of the two rectangles. A flat leaf (`dx = 0`) is widened first (Reshetov: the
     /// expansion costs nothing, since only the flat leaf's own triangles are tested).
-    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     pub fn new(
         l: L,
@@ -149,7 +149,7 @@ impl<L: Lanes> Beam<L> {
             return None;
         }
         let w = L::WIDTH;
-        let groups = p.len().div_ceil(w);
+        let groups = group_count::<L>(p.len());
         let inf = l.splat(f32::INFINITY);
         // Prevalent axis: the largest smallest-|d| among sign-consistent axes.
         let mut axis = None;
@@ -157,7 +157,7 @@ impl<L: Lanes> Beam<L> {
         for a in 0..3 {
             let (mut lo, mut hi) = (inf, -inf);
             for g in 0..groups {
-                let act = l.mask_from_bits(group(used, g, w));
+                let act = l.mask_from_bits(group_bits::<L>(used, g));
                 if act.none() {
                     continue;
                 }
@@ -207,7 +207,7 @@ impl<L: Lanes> Beam<L> {
         let mut hit_max = -inf;
         let mut mag = zero;
         for g in 0..groups {
-            let act = l.mask_from_bits(group(used, g, w));
+            let act = l.mask_from_bits(group_bits::<L>(used, g));
             if act.none() {
                 continue;
             }
@@ -550,13 +550,6 @@ enum Aperture {
     Occluder(f32),
     /// The guard failed, or the crossings straddle the triangle.
     Unknown,
-}
-
-/// The bits of group `g` of `mask`.
-#[inline(always)]
-fn group(mask: u64, g: usize, w: usize) -> u32 {
-    let lanes = if w >= 64 { u64::MAX } else { (1u64 << w) - 1 };
-    ((mask >> (g * w)) & lanes) as u32
 }
 
 /// The plane coefficients `flat` as vectors of `L`'s width: vector `v` from plane `v · width`

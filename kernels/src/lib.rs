@@ -10,6 +10,7 @@
 
 pub mod aabb;
 pub mod beam;
+pub mod groups;
 pub mod intersect;
 pub mod lanes;
 pub mod packet;

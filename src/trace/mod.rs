@@ -243,6 +243,24 @@ impl<'t> Tracer<'t> {
         }
     }
 
+    /// The packet query of `packet`'s rays `active` in this tracer's tree, with its culling.
+    fn query<'a>(
+        &'a self,
+        packet: &'a RayPacket,
+        active: u64,
+        stack: &'a mut packet::Stack,
+        counters: &'a mut PacketCounters,
+    ) -> packet::Query<'a> {
+        packet::Query {
+            tree: self.tree,
+            packet,
+            active,
+            culling: self.culling,
+            stack,
+            counters,
+        }
+    }
+
     /// [`Tracer::intersect_packet_counted`] with the test `F` and the traversal `INTERVAL`:
     /// one ISA entry point per combination.
     fn closest_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
@@ -254,12 +272,8 @@ impl<'t> Tracer<'t> {
     ) {
         packet::with_stack(|stack| {
             let task = ClosestPacket::<F, INTERVAL> {
-                tracer: self,
-                packet,
-                active,
+                query: self.query(packet, active, stack, counters),
                 hits,
-                stack,
-                counters,
                 test: PhantomData,
             };
             self.dispatch.run(task)
@@ -294,11 +308,7 @@ impl<'t> Tracer<'t> {
         let mut counters = PacketCounters::default();
         packet::with_stack(|stack| {
             let task = OccludedPacket::<F, INTERVAL> {
-                tracer: self,
-                packet,
-                active,
-                stack,
-                counters: &mut counters,
+                query: self.query(packet, active, stack, &mut counters),
                 test: PhantomData,
             };
             self.dispatch.run(task)
@@ -308,62 +318,33 @@ impl<'t> Tracer<'t> {
 
 /// [`Tracer::intersect_packet`] as a task generic over the lanes, with the test `F` and the
 /// traversal `INTERVAL`.
-struct ClosestPacket<'a, 't, F, const INTERVAL: bool> {
-    tracer: &'a Tracer<'t>,
-    packet: &'a RayPacket,
-    active: u64,
+struct ClosestPacket<'a, F, const INTERVAL: bool> {
+    query: packet::Query<'a>,
     hits: &'a mut HitPacket,
-    stack: &'a mut packet::Stack,
-    counters: &'a mut PacketCounters,
     test: PhantomData<F>,
 }
 
-impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask
-    for ClosestPacket<'_, '_, F, INTERVAL>
-{
+impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask for ClosestPacket<'_, F, INTERVAL> {
     type Output = ();
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) {
-        packet::closest::<L, F::For<L>, INTERVAL>(
-            l,
-            self.tracer.tree,
-            self.packet,
-            self.active,
-            self.tracer.culling,
-            self.hits,
-            self.stack,
-            self.counters,
-        )
+        packet::closest::<L, F::For<L>, INTERVAL>(l, self.query, self.hits)
     }
 }
 
 /// [`Tracer::occluded_packet`] as a task generic over the lanes, with the test `F` and the
 /// traversal `INTERVAL`.
-struct OccludedPacket<'a, 't, F, const INTERVAL: bool> {
-    tracer: &'a Tracer<'t>,
-    packet: &'a RayPacket,
-    active: u64,
-    stack: &'a mut packet::Stack,
-    counters: &'a mut PacketCounters,
+struct OccludedPacket<'a, F, const INTERVAL: bool> {
+    query: packet::Query<'a>,
     test: PhantomData<F>,
 }
 
-impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask
-    for OccludedPacket<'_, '_, F, INTERVAL>
-{
+impl<F: packet::LaneTestFamily, const INTERVAL: bool> LaneTask for OccludedPacket<'_, F, INTERVAL> {
     type Output = u64;
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> u64 {
-        packet::occluded::<L, F::For<L>, INTERVAL>(
-            l,
-            self.tracer.tree,
-            self.packet,
-            self.active,
-            self.tracer.culling,
-            self.stack,
-            self.counters,
-        )
+        packet::occluded::<L, F::For<L>, INTERVAL>(l, self.query)
     }
 }

@@ -1,179 +1,23 @@
-//! The surface area heuristic and the event sweep that finds a node's best plane
-//! (Wald & Havran 2006, §3 and §4.2, Algorithm 4), and the binned search used instead on large
-//! nodes (Hunt, Mark & Stoll 2006; Shevtsov, Soupikov & Kapustin 2007).
+//! The exact search of small nodes: every face of their boxes as a candidate plane, with exact
+//! counts, by counting in SIMD lanes or by Wald & Havran's sweep of the sorted events.
 
-use glam::{BVec3A, Vec3A, Vec3Swizzles};
-use kdbeam_kernels::lanes::truncate_to_i32;
+use glam::{BVec3A, Vec3A};
 use kdbeam_kernels::lanes::Dispatch;
-use kdbeam_kernels::split_planes::{
-    cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
-};
+use kdbeam_kernels::split_planes::{count_planes, AxisPlanes};
 use kdbeam_kernels::{Aabb, LaneTask, Lanes};
 
-use super::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
-use super::refs::Ref;
-use super::BuildParams;
-
-/// The SAH costs in units of one traversal step.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct CostModel {
-    /// `Ci / Ct`.
-    ci_over_ct: f32,
-    /// `1 − empty_bonus`: the factor λ on a split's intersection cost when one side is empty.
-    empty_factor: f32,
-}
-
-/// The best plane of a node.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct Split {
-    /// 0, 1 or 2.
-    pub axis: usize,
-    /// The plane's position key ([`super::events::key`]).
-    pub pos_key: u32,
-    /// Do the triangles lying in the plane go to the below side?
-    pub planar_below: bool,
-    /// Its SAH cost.
-    pub cost: f32,
-    /// Triangles on the below side, the planar ones included when they go below. When it is
-    /// 0, every triangle goes above, unclipped, with its events unchanged.
-    pub below_count: u32,
-    /// Triangles on the above side, likewise.
-    pub above_count: u32,
-}
-
-impl CostModel {
-    /// The cost model of valid `params`.
-    pub fn new(params: &BuildParams) -> Self {
-        CostModel {
-            ci_over_ct: params.ci_over_ct,
-            empty_factor: 1.0 - params.empty_bonus,
-        }
-    }
-
-    /// The cost of not splitting a node of `n` triangles: `Ci/Ct · n`.
-    #[inline]
-    pub fn leaf_cost(&self, n: usize) -> f32 {
-        self.ci_over_ct * n as f32
-    }
-
-    /// The cheapest plane in `cell` among a small node's [`ExactPlanes`]: every face of its
-    /// boxes strictly inside the cell; `None` when there is none (a cell flat on every axis but
-    /// at most one, or extents overflowing f32). Costed in the lanes of `dispatch`'s ISA, with the same
-    /// plane, cost and counts on every ISA.
-    ///
-    /// The cost of a plane is Wald & Havran's eq. (2) with the empty bonus:
-    /// `1 + Ci/Ct · (P_b·N_b + P_a·N_a) · λ`, where `P` are the children's surface areas over
-    /// the node's and λ = `1 − empty_bonus` when one side holds no triangle, else 1. Each plane
-    /// is evaluated with the triangles lying in it on either side. Only planes strictly inside
-    /// the cell are offered, so an empty side is never a flat, zero-volume cell (which would
-    /// earn the bonus for nothing, and could repeat forever).
-    ///
-    /// Ties: on an axis the lowest weight `λ · (P_b·N_b + P_a·N_a)` wins, then the lowest
-    /// position; between axes the lowest cost, then the first axis. The triangles lying in the
-    /// plane go below when both sides cost the same.
-    pub fn best_split(
-        &self,
-        dispatch: Dispatch,
-        planes: &ExactPlanes,
-        cell: &Aabb,
-    ) -> Option<Split> {
-        self.cheapest(dispatch, planes, cell, |axis, index, planar_below| {
-            let counts = &planes.axes[axis];
-            let planar = counts.planar[index] as u32;
-            let (pb, pa) = if planar_below {
-                (planar, 0)
-            } else {
-                (0, planar)
-            };
-            Split {
-                axis,
-                pos_key: key(counts.pos[index]),
-                planar_below,
-                cost: 0.0,
-                below_count: counts.below[index] as u32 + pb,
-                above_count: counts.above[index] as u32 + pa,
-            }
-        })
-    }
-
-    /// The cheapest plane in `cell` among a binned node's candidates ([`Bins`]): per axis, the
-    /// face of the triangles' union below them all (with `N_below = 0`), the [`BINS`] − 1 bin
-    /// boundaries strictly between the union's faces, and the face above them all
-    /// (`N_above = 0`); only planes strictly inside the cell are offered. `None` as for
-    /// [`CostModel::best_split`]. Costed in the lanes of `dispatch`'s ISA by the exact search's kernel,
-    /// with the same plane on every ISA.
-    ///
-    /// The cost is the same as the sweep's, with the bins' counts: exact at the union's faces
-    /// (so that empty space is cut off exactly where the sweep would cut it), and at a boundary
-    /// an estimate that may count a triangle touching the plane on the wrong side. Only the
-    /// choice of plane is approximate: the split itself classifies and clips exactly. A boundary
-    /// never sees an empty side (the union's faces lie in the first and last bins), so
-    /// [`Split::below_count`] and [`Split::above_count`] are 0 only when exact.
-    ///
-    /// Ties as for [`CostModel::best_split`]. (A weight, not the cost `1 + Ci/Ct · weight`, picks
-    /// the plane of an axis: two weights can round to one cost.) Triangles lying in a plane go
-    /// below, except at the union's lower face (where they go above, so that the below side is
-    /// empty).
-    pub fn best_binned_split(&self, dispatch: Dispatch, bins: &Bins, cell: &Aabb) -> Option<Split> {
-        self.cheapest(dispatch, bins, cell, |axis, index, _| Split {
-            axis,
-            pos_key: key(bins.pos[axis][index]),
-            planar_below: index != 0,
-            cost: 0.0,
-            below_count: bins.below[axis][index] as u32,
-            above_count: bins.above[axis][index] as u32,
-        })
-    }
-
-    /// The cheapest of `candidates` in `cell`, costed in the lanes of `dispatch`'s ISA, as a split:
-    /// `split(axis, index, planar_below)` describes plane `index` of `axis`, and its cost
-    /// `1 + Ci/Ct · weight` is filled in. Between axes the lowest cost wins, then the first.
-    #[inline]
-    fn cheapest<C: Candidates>(
-        &self,
-        dispatch: Dispatch,
-        candidates: &C,
-        cell: &Aabb,
-        split: impl Fn(usize, usize, bool) -> Split,
-    ) -> Option<Split> {
-        let cells = AxisGeometry::of_cell(cell).map(|g| {
-            g.map(|g| AxisCell {
-                base: g.base,
-                slope: g.slope,
-                lo: g.lo,
-                hi: g.hi,
-                empty_factor: self.empty_factor,
-            })
-        });
-        let found = dispatch.run(Cheapest { candidates, cells });
-        let mut best: Option<Split> = None;
-        for (axis, found) in found.into_iter().enumerate() {
-            let Some(CheapestPlane {
-                index,
-                weight,
-                planar_below,
-            }) = found
-            else {
-                continue;
-            };
-            let cost = 1.0 + self.ci_over_ct * weight;
-            if best.is_none_or(|b| cost < b.cost) {
-                best = Some(Split {
-                    cost,
-                    ..split(axis, index, planar_below)
-                });
-            }
-        }
-        best
-    }
-}
+use super::cost::{Candidates, Split};
+use crate::kdtree::events::{key, kind, pos_key, unkey, Event, END, PLANAR, START};
+use crate::kdtree::refs::Ref;
+#[cfg(doc)]
+use crate::kdtree::BuildParams;
 
 /// Exact searches of nodes of at most this many triangles count their planes in SIMD lanes
 /// ([`ExactPlanes::count`]), `O(n²)` but branch-free; larger ones (when
 /// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. On the
 /// dragon with exact searches up to 128 triangles, counting them all built in 145.6 ms against
 /// 149.1 ms for sweeping those above 64 (one run each: within the noise, so not slower).
-pub(super) const COUNTED_SEARCH_MAX: usize = 128;
+pub(crate) const COUNTED_SEARCH_MAX: usize = 128;
 
 /// Room for the planes of a counted search: a power of two, so that a mask keeps indices in
 /// range.
@@ -189,7 +33,7 @@ const _: () = assert!(COUNTED_PLANES.is_power_of_two());
 /// once; the count once per box face below [`DEDUP_MIN`] triangles, and from there on mostly
 /// once (a hash collision can leave a repeat in, with the same counts: harmless).
 #[derive(Default)]
-pub(super) struct ExactPlanes {
+pub(crate) struct ExactPlanes {
     axes: [AxisCounts; 3],
     seen: SeenPositions,
 }
@@ -363,6 +207,29 @@ impl ExactPlanes {
     }
 }
 
+impl ExactPlanes {
+    /// Plane `index` of `axis` as a split, its planar boxes below when `planar_below`, its cost
+    /// left at 0.
+    #[inline(always)]
+    pub(super) fn split(&self, axis: usize, index: usize, planar_below: bool) -> Split {
+        let counts = &self.axes[axis];
+        let planar = counts.planar[index] as u32;
+        let (pb, pa) = if planar_below {
+            (planar, 0)
+        } else {
+            (0, planar)
+        };
+        Split {
+            axis,
+            pos_key: key(counts.pos[index]),
+            planar_below,
+            cost: 0.0,
+            below_count: counts.below[index] as u32 + pb,
+            above_count: counts.above[index] as u32 + pa,
+        }
+    }
+}
+
 impl Candidates for ExactPlanes {
     #[inline(always)]
     fn planes(&self, axis: usize) -> AxisPlanes<'_> {
@@ -435,182 +302,12 @@ impl LaneTask for Count<'_> {
     }
 }
 
-/// Candidate planes with their counts, per axis: [`ExactPlanes`] or [`Bins`].
-trait Candidates {
-    /// The planes of `axis`, for the kernels.
-    fn planes(&self, axis: usize) -> AxisPlanes<'_>;
-}
-
-/// The kernel calls of [`CostModel::best_split`] and [`CostModel::best_binned_split`]: the
-/// cheapest plane of each axis with a cell span, in one ISA entry point.
-struct Cheapest<'a, C> {
-    candidates: &'a C,
-    cells: [Option<AxisCell>; 3],
-}
-
-impl<C: Candidates> LaneTask for Cheapest<'_, C> {
-    type Output = [Option<CheapestPlane>; 3];
-    #[inline(always)]
-    fn run<L: Lanes>(self, l: L) -> Self::Output {
-        // A loop, not `map`: a closure would not inherit the entry point's target features.
-        let mut found = [None; 3];
-        for (axis, (found, cell)) in found.iter_mut().zip(&self.cells).enumerate() {
-            if let Some(cell) = cell {
-                *found = cheapest_plane(l, &self.candidates.planes(axis), cell);
-            }
-        }
-        found
-    }
-}
-
-/// What the cost of a plane on one axis of a cell needs: with `a`, `b` the other two extents
-/// and `w` this one's (all over the largest extent, so that huge coordinates cannot overflow
-/// the products; the ratios are unchanged), SA(child) / SA(cell) =
-/// `(ab + (a + b)·w_child) / (ab + (a + b)·w)`.
-struct AxisGeometry {
-    /// `ab / SA`: a child's area ratio at zero width.
-    base: f32,
-    /// `(a + b) / (scale · SA)`: its growth per unit of width.
-    slope: f32,
-    lo: f32,
-    hi: f32,
-}
-
-impl AxisGeometry {
-    /// The geometry of each axis of `cell`; `None` for an axis on which the cell is flat, and
-    /// for all three when its extents are not finite and positive (no plane lies strictly
-    /// inside). The three axes at once, in vector lanes: the same operations as one at a time.
-    #[inline(always)]
-    fn of_cell(cell: &Aabb) -> [Option<Self>; 3] {
-        let extent = Vec3A::from(cell.max) - Vec3A::from(cell.min);
-        let scale = extent.max_element();
-        if !(scale > 0.0 && scale.is_finite()) {
-            return [None, None, None];
-        }
-        let unit = extent / scale;
-        // Per axis, the other two extents.
-        let (a, b) = (unit.yzx(), unit.zxy());
-        let inv_area = Vec3A::ONE / (a * b + (a + b) * unit);
-        let base = a * b * inv_area;
-        let slope = (a + b) * (1.0 / scale) * inv_area;
-        // A loop, not `map`, whose closure stays out of line.
-        let mut axes = [None, None, None];
-        for (axis, g) in axes.iter_mut().enumerate() {
-            if unit[axis] > 0.0 {
-                *g = Some(AxisGeometry {
-                    base: base[axis],
-                    slope: slope[axis],
-                    lo: cell.min[axis],
-                    hi: cell.max[axis],
-                });
-            }
-        }
-        axes
-    }
-}
-
-/// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
-pub(super) const BINS: usize = 32;
-const _: () = assert!(BINS.is_power_of_two(), "bin_index masks with BINS − 1");
-
-/// The index of a bin coordinate already clamped to `[0, BINS − 1]`: its integer part (the mask
-/// lets the compiler drop the bounds checks).
-#[inline(always)]
-fn bin_index(t: i32) -> usize {
-    (t as usize) & (BINS - 1)
-}
-
-/// Candidate planes per axis of the binned search: the union's lower face, the [`BINS`] − 1
-/// bin boundaries and its upper face, padded to whole vectors of the widest lanes.
-const BINNED_PLANES: usize = (BINS + 1).next_multiple_of(8);
-
-/// A binned node's candidate planes with their counts, in the lanes [`cheapest_plane`] reads:
-/// per axis, plane 0 is the lower face of its clipped boxes' union (none below, all above),
-/// plane `j` in `1..BINS` the boundary between bins `j − 1` and `j` (the boxes starting in the
-/// bins before it are counted below, those ending in the bins from `j` on above), and plane
-/// [`BINS`] the union's upper face (all below, none above). Bin `j` of an axis covers
-/// `[first + j·w/BINS, first + (j+1)·w/BINS)` of the union's span `[first, first + w]` (up to
-/// f32 rounding, which only blurs the counts), the last bin closed. A boundary not strictly
-/// between the faces, and the padding, have a NaN position, which no cell contains. Kept
-/// across the empty-space cuts of a node, which change its cell, not its triangles.
-pub(super) struct Bins {
-    pos: [[f32; BINNED_PLANES]; 3],
-    below: [[f32; BINNED_PLANES]; 3],
-    above: [[f32; BINNED_PLANES]; 3],
-}
-
-impl Bins {
-    /// The candidates of the non-empty boxes of `refs` (at most 2³² − 1), whose union is
-    /// `union`. Counts are converted to f32, exact below 2²⁴ (beyond, rounding only blurs
-    /// near-ties).
-    pub fn new(refs: &[Ref], union: Aabb) -> Bins {
-        let per_unit = BINS as f32 / union.extent();
-        let (mut starts, mut ends) = ([[0u32; BINS]; 3], [[0u32; BINS]; 3]);
-        let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit));
-        let last = Vec3A::splat((BINS - 1) as f32);
-        // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
-        let bin = |x: Vec3A| ((x - first) * scale).max(Vec3A::ZERO).min(last);
-        for r in refs {
-            let (lo, hi) = (truncate_to_i32(bin(r.lo())), truncate_to_i32(bin(r.hi())));
-            for axis in 0..3 {
-                starts[axis][bin_index(lo[axis])] += 1;
-                ends[axis][bin_index(hi[axis])] += 1;
-            }
-        }
-        let n = refs.len() as u32;
-        let mut bins = Bins {
-            pos: [[f32::NAN; BINNED_PLANES]; 3],
-            below: [[0.0; BINNED_PLANES]; 3],
-            above: [[0.0; BINNED_PLANES]; 3],
-        };
-        for axis in 0..3 {
-            let (first, last) = (union.min[axis], union.max[axis]);
-            let (pos, below, above) = (
-                &mut bins.pos[axis],
-                &mut bins.below[axis],
-                &mut bins.above[axis],
-            );
-            (pos[0], below[0], above[0]) = (first, 0.0, n as f32);
-            let (mut nb, mut na) = (0u32, n);
-            for j in 1..BINS {
-                nb += starts[axis][j - 1];
-                na -= ends[axis][j - 1];
-                let p = first + j as f32 / per_unit[axis];
-                if p > first && p < last {
-                    pos[j] = p;
-                }
-                (below[j], above[j]) = (nb as f32, na as f32);
-            }
-            (pos[BINS], below[BINS], above[BINS]) = (last, n as f32, 0.0);
-        }
-        bins
-    }
-}
-
-impl Candidates for Bins {
-    #[inline(always)]
-    fn planes(&self, axis: usize) -> AxisPlanes<'_> {
-        AxisPlanes {
-            pos: &self.pos[axis],
-            below: &self.below[axis],
-            above: &self.above[axis],
-            planar: None,
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kdtree::events::push_box_events;
+    use crate::kdtree::sah::boxes_x;
     use kdbeam_kernels::Vec3;
-
-    fn boxes_x(spans: &[(f32, f32)]) -> Vec<Aabb> {
-        spans
-            .iter()
-            .map(|&(lo, hi)| Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi, 1.0, 1.0)))
-            .collect()
-    }
 
     #[test]
     fn the_sweep_counts_triangles_reaching_each_side_and_lying_in_the_plane() {
@@ -706,49 +403,6 @@ mod tests {
                     assert_eq!(counted.axes[axis].flat, swept.axes[axis].flat);
                 }
             }
-        }
-    }
-
-    #[test]
-    fn binned_search_cuts_empty_space_exactly_and_never_empties_a_boundary_side() {
-        let costs = CostModel::new(&BuildParams::default());
-        // Two clusters of 50 at either end of [0, 1] on x.
-        let spans: Vec<(f32, f32)> = (0..100)
-            .map(|i| {
-                let at = if i < 50 { 0.0 } else { 0.9 } + 0.001 * (i % 50) as f32;
-                (at, at + 0.05)
-            })
-            .collect();
-        let boxes = boxes_x(&spans);
-        let refs: Vec<Ref> = boxes
-            .iter()
-            .zip(0..)
-            .map(|(b, id)| Ref::new(id, b))
-            .collect();
-        let union = boxes.iter().fold(Aabb::EMPTY, |u, b| u.union(*b));
-        let bins = Bins::new(&refs, union);
-        // In a cell twice as wide, the empty space above goes first, cut at the union's face.
-        let wide = Aabb::new(Vec3::ZERO, Vec3::new(2.0, 1.0, 1.0));
-        for dispatch in Dispatch::available() {
-            let cut = costs.best_binned_split(dispatch, &bins, &wide).unwrap();
-            assert_eq!(
-                (cut.axis, unkey(cut.pos_key)),
-                (0, union.max.x),
-                "{dispatch}"
-            );
-            assert_eq!((cut.below_count, cut.above_count), (100, 0), "{dispatch}");
-        }
-        // In the union itself, the plane between the clusters, with exact counts there.
-        for dispatch in Dispatch::available() {
-            let split = costs.best_binned_split(dispatch, &bins, &union).unwrap();
-            let p = unkey(split.pos_key);
-            assert_eq!(split.axis, 0, "{dispatch}");
-            assert!(p > 0.1 && p < 0.9, "{dispatch}: {p}");
-            assert_eq!(
-                (split.below_count, split.above_count),
-                (50, 50),
-                "{dispatch}"
-            );
         }
     }
 }

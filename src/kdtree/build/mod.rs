@@ -1,0 +1,114 @@
+//! The SAH build (Wald & Havran, "On building fast kd-trees for ray tracing, and on doing that
+//! in O(N log N)", RT06), with binning on large nodes.
+//!
+//! A node is its triangles (mesh ids) with their boxes clipped to its cell. At a node:
+//! 1. the cheapest plane is searched for: in a node of more than
+//!    [`BuildParams::exact_search_max`] triangles (default 64) among binned planes ([`Bins`]:
+//!    the 31 boundaries of 32 bins per axis across the boxes' union, and the union's faces;
+//!    Hunt, Mark & Stoll 2006, Shevtsov et al. 2007), whose counts are
+//!    estimates at the boundaries; in a smaller one among every event plane, with exact counts,
+//!    as Wald & Havran do ([`ExactPlanes`]). Up to [`COUNTED_SEARCH_MAX`] triangles each plane
+//!    is counted against each box in SIMD lanes, on the builder's ISA; above, the boxes' events
+//!    are sorted per axis and swept once. Both give the same planes and counts, costed in lanes;
+//! 2. while that plane has an empty side it is emitted at once with an empty leaf, and the
+//!    search repeats in the smaller cell with the same counts ([`cut_off_empty_space`]);
+//! 3. otherwise each triangle is classified by its box (§4.3): below only, above only, or
+//!    straddling; straddling ones are clipped to each child cell ([`split_clipped_bounds`],
+//!    "perfect splits"), the others keep their boxes.
+//!
+//! O(N log N): a binned node costs O(n); a small node O(n²) for n ≤ [`COUNTED_SEARCH_MAX`], or
+//! O(n log `exact_search_max`), a constant per triangle either way; the depth limit keeps the
+//! levels O(log N). Counting replaced the sort and sweep of nodes up to 64 triangles: 16% fewer
+//! instructions in the dragon's build, and 8–11% less time on the dragon and the bunny (AVX2,
+//! three A/B rounds). Three alternatives for the small nodes had measured more
+//! instructions than the sort: keeping their event lists sorted through the splits, as Wald &
+//! Havran do (12% more); counting each candidate's sides with 4-wide compares in the baseline
+//! ISA, the costs left scalar, in nodes of at most 16 triangles (4%); and sweeping the sorted
+//! events at each search of a node instead of storing its candidates once (5%). The default
+//! threshold and the bin count were chosen by measured build time and SAH tree cost on the
+//! shared scenes.
+//!
+//! A node's references ([`Ref`]: ids and clipped boxes) are a run of one per-thread stack:
+//! a split writes its below child's over them and pushes its above child's, which are popped
+//! once the subtree is built, so no node allocates.
+//!
+//! With the `parallel` feature, the two children of a large node are built with `rayon::join`
+//! and their layouts stitched; the search and the classification do not depend on it, so the
+//! tree is the same with any number of threads.
+
+mod builder;
+mod classify;
+mod empty_space;
+mod recurse;
+mod stack;
+#[cfg(test)]
+mod tests;
+
+use std::ops::Range;
+
+use kdbeam_kernels::lanes::Dispatch;
+use kdbeam_kernels::{Aabb, Triangle};
+
+use super::events::Event;
+use super::refs::Ref;
+use super::sah::{CostModel, ExactPlanes};
+pub use builder::KdTreeBuilder;
+use empty_space::OpenCut;
+
+/// Nodes with more triangles than this build their children in parallel.
+#[cfg(feature = "parallel")]
+const PARALLEL_MIN_TRIANGLES: usize = 4096;
+
+/// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
+const MAX_TRIANGLES: usize = 1 << 30;
+
+/// A node waiting to be built: its run of the thread's references ([`Scratch::refs`]), its
+/// cell, and the union of its boxes (which lies inside the cell) when it may be binned: an
+/// exact search does not need it, and a leaf takes it from its few boxes.
+struct BoxNode {
+    refs: Range<usize>,
+    cell: Aabb,
+    union: Option<Aabb>,
+}
+
+/// What stays the same for the whole build.
+struct Context<'a> {
+    /// The mesh's triangles, by id.
+    triangles: &'a [Triangle],
+    costs: CostModel,
+    leaf_size: usize,
+    depth_limit: u32,
+    /// [`BuildParams::exact_search_max`].
+    exact_max: usize,
+    /// Exact searches of nodes of at most this many triangles count their planes in SIMD
+    /// lanes; larger ones sort and sweep their events.
+    count_max: usize,
+    /// The ISA of the plane counting and costing.
+    dispatch: Dispatch,
+    /// Whether to build children with `rayon::join` (not with a one-thread pool).
+    #[cfg(feature = "parallel")]
+    parallel: bool,
+}
+
+/// Per-thread buffers, reused by every node the thread builds.
+///
+/// `refs[..top]` is a stack: a node's references are a run of it; when it is split, its below
+/// child's take their place and its above child's are pushed, and a subtree's are popped when
+/// it has been built. No allocation per node, and each node's references lie together in
+/// memory.
+#[derive(Default)]
+struct Scratch {
+    /// The stack, and stale references above `top`: it only grows, so that a split writes its
+    /// children's references by index, with its cursors in registers.
+    refs: Vec<Ref>,
+    top: usize,
+    /// The ids of a split's straddling triangles, to be clipped; only grows, so that the
+    /// classification writes them by index.
+    straddling: Vec<u32>,
+    events: [Vec<Event>; 3],
+    planes: ExactPlanes,
+    /// A stack of the cuts of empty space still open ([`cut_off_empty_space`]): a node's are
+    /// on top while its subtree is built (a `Vec` per node would cost an allocation for each
+    /// node that has one).
+    open_cuts: Vec<OpenCut>,
+}

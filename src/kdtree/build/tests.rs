@@ -1,0 +1,186 @@
+//! The builder against itself: rebuilds, the stack's hand-over, every search and ISA, threads.
+
+use bytemuck::Zeroable;
+use kdbeam_kernels::{Isa, KsTriangle};
+
+use super::classify::sides_of;
+use super::stack::{reserve_stack, REFS_PER_KS_PAIR};
+use super::Scratch;
+use crate::kdtree::refs::Ref;
+use crate::kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
+use crate::Mesh;
+
+/// A seeded soup of `n` small triangles in the unit cube (a local LCG: the scene
+/// generators are not this module's).
+fn soup(n: usize, seed: u64) -> Mesh {
+    let mut state = seed;
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut positions = Vec::with_capacity(3 * n);
+    for _ in 0..n {
+        let c = [next(), next(), next()];
+        for _ in 0..3 {
+            positions.push(c.map(|x| x + 0.05 * (next() - 0.5)));
+        }
+    }
+    Mesh::from_soup(&positions).unwrap()
+}
+
+fn same_tree(a: &KdTree, b: &KdTree) -> bool {
+    a.nodes == b.nodes
+        && a.leaves == b.leaves
+        && a.ids == b.ids
+        && a.triangles == b.triangles
+        && a.ks_triangles == b.ks_triangles
+}
+
+/// The stats but for the build time.
+fn stats_but_time(t: &KdTree) -> BuildStats {
+    BuildStats {
+        build_time: std::time::Duration::ZERO,
+        ..t.stats
+    }
+}
+
+#[test]
+fn sides_follow_wald_and_havrans_classification() {
+    // Boxes [lo, hi] against the plane at 1, the planar ones sent either way.
+    let cases = [
+        ((0.0, 0.5), [(true, false), (true, false)]),
+        ((0.0, 1.0), [(true, false), (true, false)]),
+        ((0.0, 2.0), [(false, false), (false, false)]),
+        ((1.0, 2.0), [(false, true), (false, true)]),
+        ((1.5, 2.0), [(false, true), (false, true)]),
+        ((0.5, 0.5), [(true, false), (true, false)]),
+        ((1.5, 1.5), [(false, true), (false, true)]),
+        ((1.0, 1.0), [(true, false), (false, true)]),
+    ];
+    for ((lo, hi), sides) in cases {
+        for (planar_below, want) in [true, false].into_iter().zip(sides) {
+            assert_eq!(sides_of(lo, hi, 1.0, planar_below), want, "[{lo}, {hi}]");
+        }
+    }
+}
+
+#[test]
+fn rebuilding_into_an_old_tree_gives_the_fresh_build() {
+    let (big, small) = (soup(3000, 1), soup(500, 2));
+    let params = BuildParams::default();
+    let mut builder = KdTreeBuilder::new();
+    let mut tree = builder.build(&big, &params).unwrap();
+    // Smaller, larger, smaller again: nothing of the previous tree or build may survive.
+    for mesh in [&small, &big, &small] {
+        builder.rebuild(&mut tree, mesh, &params).unwrap();
+        let fresh = KdTree::build(mesh, &params).unwrap();
+        assert!(same_tree(&tree, &fresh));
+        assert_eq!(tree.bounds, fresh.bounds);
+        assert_eq!(tree.mesh_triangles, fresh.mesh_triangles);
+        assert_eq!(stats_but_time(&tree), stats_but_time(&fresh));
+    }
+    // A failed rebuild leaves the tree as it was.
+    let before = tree.clone();
+    let bad = BuildParams {
+        ci_over_ct: -1.0,
+        ..params
+    };
+    assert!(builder.rebuild(&mut tree, &big, &bad).is_err());
+    assert!(same_tree(&tree, &before) && tree.bounds == before.bounds);
+}
+
+#[test]
+fn a_dropped_builders_stack_becomes_the_trees_triangles_memory() {
+    let mut scratch = Scratch::default();
+    reserve_stack(&mut scratch.refs, 1000);
+    scratch.refs.resize(10, Ref::zeroed());
+    let (stack, capacity) = (scratch.refs.as_ptr() as usize, scratch.refs.capacity());
+    assert!(capacity >= 1000 && capacity.is_multiple_of(REFS_PER_KS_PAIR));
+    let mut ks = vec![KsTriangle::zeroed(); 4];
+    let theirs = ks.as_ptr() as usize;
+    // More triangles than the stack holds: it is kept.
+    scratch.hand_over_stack(&mut ks, capacity);
+    assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 4));
+    assert_eq!(scratch.refs.as_ptr() as usize, stack);
+    scratch.hand_over_stack(&mut ks, 600);
+    assert_eq!((ks.as_ptr() as usize, ks.len()), (stack, 0));
+    assert_eq!(ks.capacity(), capacity / REFS_PER_KS_PAIR * 2);
+    assert_eq!(scratch.refs.as_ptr() as usize, theirs);
+    assert_eq!((scratch.refs.len(), scratch.refs.capacity()), (0, 6));
+    // A tree's odd capacity cannot hold whole references: the stack is then new.
+    let mut ks = Vec::with_capacity(3);
+    ks.push(KsTriangle::zeroed());
+    scratch.hand_over_stack(&mut ks, 4);
+    assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 0));
+    assert_eq!(scratch.refs.capacity(), 0);
+    // A tree built by `KdTree::build` is the one a kept builder builds.
+    let mesh = soup(2000, 5);
+    let params = BuildParams::default();
+    let kept = KdTreeBuilder::new().build(&mesh, &params).unwrap();
+    assert!(same_tree(&KdTree::build(&mesh, &params).unwrap(), &kept));
+}
+
+#[test]
+fn counted_swept_and_binned_searches_build_the_same_tree_on_every_isa() {
+    // A soup, and a box of grids whose flat triangles put planar boxes on the planes.
+    let meshes = [
+        soup(1500, 3),
+        crate::scene::procedural::closed_grid_box(8, glam::Vec3::ZERO, glam::Vec3::ONE),
+    ];
+    // Exact searches only, and binned ones above the default threshold.
+    let settings = [0.1, 1.5, 10.0].into_iter().flat_map(|ci_over_ct| {
+        [200, BuildParams::default().exact_search_max].map(|exact| (ci_over_ct, exact))
+    });
+    for mesh in &meshes {
+        for (ci_over_ct, exact_search_max) in settings.clone() {
+            let params = BuildParams {
+                ci_over_ct,
+                exact_search_max,
+                ..BuildParams::default()
+            };
+            let swept = KdTreeBuilder::new()
+                .with_count_max(0)
+                .build(mesh, &params)
+                .unwrap();
+            assert!(swept.stats.nodes > 50, "{}", swept.stats);
+            for isa in Isa::available() {
+                let counted = KdTreeBuilder::new()
+                    .with_isa(isa)
+                    .unwrap()
+                    .build(mesh, &params)
+                    .unwrap();
+                assert!(
+                    same_tree(&counted, &swept),
+                    "{isa}, ci/ct {ci_over_ct}, exact≤{exact_search_max}"
+                );
+            }
+        }
+    }
+}
+
+#[cfg(feature = "parallel")]
+#[test]
+fn one_thread_and_many_threads_build_the_same_tree() {
+    // 20k triangles: several nodes above the parallel threshold.
+    let mesh = soup(20_000, 7);
+    for ci_over_ct in [0.1, 1.0, 10.0] {
+        let params = BuildParams {
+            ci_over_ct,
+            ..BuildParams::default()
+        };
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| KdTree::build(&mesh, &params).unwrap());
+        let four = rayon::ThreadPoolBuilder::new()
+            .num_threads(4)
+            .build()
+            .unwrap()
+            .install(|| KdTree::build(&mesh, &params).unwrap());
+        assert!(one.stats.nodes > 1000, "{}", one.stats);
+        assert!(same_tree(&one, &four), "ci/ct {ci_over_ct}");
+    }
+}

@@ -1,0 +1,93 @@
+//! The any-hit visitor: a ray leaves the traversal at its first hit (shadow rays).
+
+use kdbeam_kernels::groups::{group_bits, group_count, lane_rays};
+use kdbeam_kernels::{LaneMask, Lanes, RayPacket};
+
+use super::lane_test::LaneTest;
+use super::visit::{leaf_beam, LeafVisit, PacketVisitor, SurvivorBlocks};
+use super::{Column, PacketCounters};
+use crate::trace::culling::Culling;
+
+/// Any hit: a ray leaves the traversal at its first hit in `[tmin, tmax]`.
+pub(crate) struct AnyHits<T> {
+    tmax: Column,
+    culling: Culling,
+    /// Ray–triangle tests performed.
+    tests: u64,
+    occluded: u64,
+    test: core::marker::PhantomData<T>,
+}
+
+impl<T> AnyHits<T> {
+    /// No ray of `p` occluded yet; every ray tested up to its `tmax`.
+    pub(crate) fn new(p: &RayPacket, culling: Culling) -> Self {
+        AnyHits {
+            tmax: p.tmax,
+            culling,
+            tests: 0,
+            occluded: 0,
+            test: core::marker::PhantomData,
+        }
+    }
+
+    /// Ray–triangle tests performed.
+    pub(crate) fn tests(&self) -> u64 {
+        self.tests
+    }
+
+    /// The rays found occluded, as a bit mask.
+    pub(crate) fn occluded(&self) -> u64 {
+        self.occluded
+    }
+}
+
+impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
+    #[inline(always)]
+    fn visit(
+        &mut self,
+        l: L,
+        p: &RayPacket,
+        visit: LeafVisit<'_>,
+        counters: &mut PacketCounters,
+    ) -> u64 {
+        let mut open = visit.mask;
+        let mut tests = 0u64;
+        let beam = leaf_beam(l, p, &visit, &self.culling, None);
+        let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        #[allow(clippy::while_let_on_iterator)]
+        while let Some((first, s)) = blocks.next() {
+            for g in 0..group_count::<L>(p.len()) {
+                let before = group_bits::<L>(open, g);
+                let mut bits = before;
+                if bits == 0 {
+                    continue;
+                }
+                let b = g * L::WIDTH;
+                let rays = lane_rays(l, p, g);
+                let prepared = T::prepare(l, &rays);
+                let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&p.tmax[b..]));
+                let mut rest = s.mask;
+                while rest != 0 && bits != 0 {
+                    let j = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    tests += u64::from(bits.count_ones());
+                    let inside = s.inside >> j & 1 != 0;
+                    let tris = &visit.triangles;
+                    let h = T::test(l, &prepared, &rays, tris, first + j, (tmin, tmax), inside);
+                    bits &= !(h.mask & l.mask_from_bits(bits)).bits();
+                }
+                open &= !(u64::from(before & !bits) << b);
+            }
+        }
+        blocks.finish(counters);
+        self.tests += tests;
+        let found = visit.mask & !open;
+        self.occluded |= found;
+        found
+    }
+
+    #[inline(always)]
+    fn best_t(&self) -> &Column {
+        &self.tmax
+    }
+}

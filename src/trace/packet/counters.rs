@@ -1,0 +1,84 @@
+//! What packet traversals count: packets, node and leaf visits, tests, culled tests, hits.
+
+use kdbeam_kernels::MAX_PACKET_RAYS;
+
+/// Work done by packet traversals, summed by callers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PacketCounters {
+    /// Packets (after the split by octant) traced.
+    pub packets: u64,
+    /// Inner nodes entered by a packet.
+    pub inner_visits: u64,
+    /// Non-empty leaves entered by a packet.
+    pub leaf_visits: u64,
+    /// Ray–leaf visits: active rays summed over leaf visits.
+    pub ray_leaf_visits: u64,
+    /// Ray–triangle tests a packet would perform without culling (active rays × triangles).
+    pub potential_tests: u64,
+    /// Ray–triangle tests performed.
+    pub tests: u64,
+    /// Leaf visits where a beam was built.
+    pub beams: u64,
+    /// Tests culled by the side planes (counted with the `stats` feature).
+    pub culled_planes: u64,
+    /// Tests culled by the near and far planes (counted with the `stats` feature).
+    pub culled_distance: u64,
+    /// Tests culled by the aperture test (counted with the `stats` feature).
+    pub culled_aperture: u64,
+    /// Hits found (a ray's closest hit improving; counted with the `stats` feature).
+    pub hits: u64,
+    /// Leaf visits by number of active rays, 0 to 64 (counted with the `stats` feature).
+    pub active_rays: [u64; MAX_PACKET_RAYS + 1],
+}
+
+impl Default for PacketCounters {
+    fn default() -> Self {
+        PacketCounters {
+            packets: 0,
+            inner_visits: 0,
+            leaf_visits: 0,
+            ray_leaf_visits: 0,
+            potential_tests: 0,
+            tests: 0,
+            beams: 0,
+            culled_planes: 0,
+            culled_distance: 0,
+            culled_aperture: 0,
+            hits: 0,
+            active_rays: [0; MAX_PACKET_RAYS + 1],
+        }
+    }
+}
+
+impl PacketCounters {
+    /// Adds `o` to `self`.
+    pub fn add(&mut self, o: &PacketCounters) {
+        self.packets += o.packets;
+        self.inner_visits += o.inner_visits;
+        self.leaf_visits += o.leaf_visits;
+        self.ray_leaf_visits += o.ray_leaf_visits;
+        self.potential_tests += o.potential_tests;
+        self.tests += o.tests;
+        self.beams += o.beams;
+        self.culled_planes += o.culled_planes;
+        self.culled_distance += o.culled_distance;
+        self.culled_aperture += o.culled_aperture;
+        self.hits += o.hits;
+        for (a, b) in self.active_rays.iter_mut().zip(&o.active_rays) {
+            *a += b;
+        }
+    }
+
+    /// Share of the potential ray–triangle tests that culling eliminated, in percent.
+    pub fn eliminated_percent(&self) -> f64 {
+        if self.potential_tests == 0 {
+            return 0.0;
+        }
+        100.0 * (1.0 - self.tests as f64 / self.potential_tests as f64)
+    }
+
+    /// Share of leaf visits with a single active ray, in percent (with the `stats` feature).
+    pub fn single_ray_visits_percent(&self) -> f64 {
+        100.0 * self.active_rays[1] as f64 / self.leaf_visits.max(1) as f64
+    }
+}

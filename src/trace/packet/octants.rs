@@ -1,0 +1,54 @@
+//! Which rays of a packet can be traced, and their split by octant of direction signs.
+
+use kdbeam_kernels::groups::{group_bits, group_count, lane_rays};
+use kdbeam_kernels::{LaneF32, LaneMask, Lanes, RayPacket};
+
+/// Rays of `active` that can be traced (see [`is_traceable`](super::single::is_traceable)), a group of lanes at a time:
+/// finite origin and direction (`|x| < inf`, false for NaN), a direction that is not zero on
+/// every axis, and `tmin <= tmax` (false when either is NaN).
+#[inline(always)]
+pub(crate) fn traceable_mask<L: Lanes>(l: L, p: &RayPacket, active: u64) -> u64 {
+    let (inf, zero) = (l.splat(f32::INFINITY), l.splat(0.0));
+    let mut traceable = 0u64;
+    for g in 0..group_count::<L>(p.len()) {
+        let b = g * L::WIDTH;
+        let rays = lane_rays(l, p, g);
+        // No closures here: inside the ISA's `#[target_feature]` entry they are not inlined.
+        let mut finite = l.load(&p.tmin[b..]).le(l.load(&p.tmax[b..]));
+        let mut zero_dir = !l.mask_from_bits(0);
+        for a in 0..3 {
+            finite = finite & rays.org[a].abs().lt(inf) & rays.dir[a].abs().lt(inf);
+            zero_dir = zero_dir & rays.dir[a].eq(zero);
+        }
+        traceable |= u64::from(finite.and_not(zero_dir).bits()) << b;
+    }
+    traceable & active & p.full_mask()
+}
+
+/// The rays of `mask` sorted by the sign bits of their direction: one mask per octant, bit `a`
+/// of the octant set for a sign bit on axis `a` (`-0.0` counts as negative, as its reciprocal
+/// is `-inf`).
+#[inline(always)]
+pub(crate) fn octant_masks<L: Lanes>(l: L, p: &RayPacket, mask: u64) -> [u64; 8] {
+    let mut octants = [0u64; 8];
+    for g in 0..group_count::<L>(p.len()) {
+        let bits = group_bits::<L>(mask, g);
+        if bits == 0 {
+            continue;
+        }
+        let b = g * L::WIDTH;
+        let signs = [
+            l.load(&p.dir[0][b..]).sign_bits(),
+            l.load(&p.dir[1][b..]).sign_bits(),
+            l.load(&p.dir[2][b..]).sign_bits(),
+        ];
+        for (o, octant) in octants.iter_mut().enumerate() {
+            let mut lanes = bits;
+            for (a, &sign) in signs.iter().enumerate() {
+                lanes &= if o >> a & 1 != 0 { sign } else { !sign };
+            }
+            *octant |= u64::from(lanes) << b;
+        }
+    }
+    octants
+}

@@ -1,0 +1,160 @@
+//! The per-ray packet traversal: each ray keeps its own interval, a mask says which rays are in
+//! the current cell.
+
+use kdbeam_kernels::groups::{group_bits, group_count, load_axes};
+use kdbeam_kernels::{slab, LaneF32, LaneMask, Lanes};
+
+use super::visit::{visit_leaf, LeafVisit, PacketVisitor};
+use super::{Stack, Traversal, N};
+use crate::trace::single::{root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
+
+/// Traverses `tree` with the rays of `mask`, which must all be traceable and share the
+/// direction signs `octant` (bit `a` set for a negative component on axis `a`).
+#[inline(always)]
+pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
+    t: &mut Traversal<'_, L, V>,
+    mut mask: u64,
+    octant: usize,
+    stack: &mut Stack,
+) {
+    let (l, tree, p) = (t.l, t.tree, t.packet);
+    let (visitor, counters) = (&mut *t.visitor, &mut *t.counters);
+    let groups = group_count::<L>(p.len());
+    let used = groups * L::WIDTH;
+    let mut inv = [[0f32; N]; 3];
+    let mut err = [[0f32; N]; 3];
+    let max = l.splat(f32::MAX);
+    for a in 0..3 {
+        for g in 0..groups {
+            let b = g * L::WIDTH;
+            let i = l.splat(1.0) / l.load(&p.dir[a][b..]);
+            l.store(i, &mut inv[a][b..]);
+            l.store(
+                (l.load(&p.org[a][b..]) * i).abs().min(max),
+                &mut err[a][b..],
+            );
+        }
+    }
+    let mut t_enter = [0f32; N];
+    let mut t_exit = [0f32; N];
+    let bounds = root_bounds(tree);
+    let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
+    let mut clipped = 0u64;
+    for g in 0..groups {
+        let bits = group_bits::<L>(mask, g);
+        if bits == 0 {
+            continue;
+        }
+        let b = g * L::WIDTH;
+        let org = load_axes(l, &p.org, b);
+        let iv = load_axes(l, &inv, b);
+        let (hit, tn, tf) = slab::slab_lanes(
+            l,
+            &org,
+            &iv,
+            l.load(&p.tmin[b..]),
+            l.load(&p.tmax[b..]),
+            &bounds,
+        );
+        l.store(tn, &mut t_enter[b..]);
+        l.store(tf, &mut t_exit[b..]);
+        clipped |= u64::from((hit & l.mask_from_bits(bits)).bits()) << b;
+    }
+    mask = clipped;
+    let packet_mask = mask;
+    counters.packets += 1;
+
+    let nodes = tree.nodes();
+    let mut stack_node = [0u32; STACK_DEPTH];
+    let mut stack_mask = [0u64; STACK_DEPTH];
+    let Stack {
+        enter: stack_enter,
+        exit: stack_exit,
+    } = stack;
+    let mut top = 0;
+    let mut node_index = 0u32;
+    let mut done = 0u64;
+    let mut near_exit = [0f32; N];
+    let mut far_enter = [0f32; N];
+    while mask != 0 {
+        let node = nodes[node_index as usize];
+        let mut descended = false;
+        if !node.is_leaf() {
+            counters.inner_visits += 1;
+            let axis = node.axis();
+            let split = l.splat(node.split());
+            let eps = l.splat(INTERVAL_EPS);
+            let (near, far) = if octant >> axis & 1 != 0 {
+                (node.above_child(), node_index + 1)
+            } else {
+                (node_index + 1, node.above_child())
+            };
+            let (mut near_mask, mut far_mask) = (0u64, 0u64);
+            for g in 0..groups {
+                let bits = group_bits::<L>(mask, g);
+                if bits == 0 {
+                    continue;
+                }
+                let b = g * L::WIDTH;
+                let ts = (split - l.load(&p.org[axis][b..])) * l.load(&inv[axis][b..]);
+                let (tn, tf) = (l.load(&t_enter[b..]), l.load(&t_exit[b..]));
+                let (ne, fe) = split_intervals(ts, tn, tf, l.load(&err[axis][b..]), eps, max);
+                let act = l.mask_from_bits(bits);
+                l.store(ne, &mut near_exit[b..]);
+                l.store(fe, &mut far_enter[b..]);
+                near_mask |= u64::from((act & tn.le(ne)).bits()) << b;
+                far_mask |= u64::from((act & fe.le(tf)).bits()) << b;
+            }
+            if near_mask != 0 {
+                if far_mask != 0 {
+                    stack_node[top] = far;
+                    stack_mask[top] = far_mask;
+                    stack_enter[top][..used].copy_from_slice(&far_enter[..used]);
+                    stack_exit[top][..used].copy_from_slice(&t_exit[..used]);
+                    top += 1;
+                }
+                t_exit[..used].copy_from_slice(&near_exit[..used]);
+                (node_index, mask) = (near, near_mask);
+                descended = true;
+            } else if far_mask != 0 {
+                t_enter[..used].copy_from_slice(&far_enter[..used]);
+                (node_index, mask) = (far, far_mask);
+                descended = true;
+            }
+        } else {
+            let leaf = &tree.leaves()[node.leaf_record() as usize];
+            if leaf.count > 0 {
+                let visit = LeafVisit {
+                    triangles: tree.leaf_triangles(leaf),
+                    bounds: &leaf.bounds,
+                    mask,
+                    packet_mask,
+                    scene_bound,
+                };
+                done |= visit_leaf(l, p, visit, visitor, counters);
+            }
+        }
+        if descended {
+            continue;
+        }
+        // Pop the next cell that some ray still needs: one whose entry is not after its hit.
+        mask = 0;
+        while mask == 0 && top > 0 {
+            top -= 1;
+            node_index = stack_node[top];
+            t_enter[..used].copy_from_slice(&stack_enter[top][..used]);
+            t_exit[..used].copy_from_slice(&stack_exit[top][..used]);
+            let candidates = stack_mask[top] & !done;
+            let best = visitor.best_t();
+            for g in 0..groups {
+                let bits = group_bits::<L>(candidates, g);
+                if bits == 0 {
+                    continue;
+                }
+                let b = g * L::WIDTH;
+                let keep = l.load(&t_enter[b..]).le(l.load(&best[b..]));
+                mask |= u64::from((keep & l.mask_from_bits(bits)).bits()) << b;
+            }
+        }
+    }
+}

@@ -1,0 +1,167 @@
+//! A packet in a leaf: what it knows there, what a visitor does with it, and the blocks of
+//! triangles that survive the leaf's beam.
+
+use kdbeam_kernels::beam::{Beam, Survivors};
+use kdbeam_kernels::{Aabb, Lanes, RayPacket};
+
+use super::{Column, PacketCounters};
+use crate::kdtree::LeafTriangles;
+use crate::trace::culling::Culling;
+
+/// What a packet entering a leaf knows.
+pub(crate) struct LeafVisit<'a> {
+    /// The leaf's triangles.
+    pub triangles: LeafTriangles<'a>,
+    /// The leaf's tight box.
+    pub bounds: &'a Aabb,
+    /// Rays active in this leaf.
+    pub mask: u64,
+    /// Every ray of this traversal (the maskless frustum's rays).
+    pub packet_mask: u64,
+    /// The largest absolute coordinate of the scene.
+    pub scene_bound: f32,
+}
+
+/// What a packet traversal does in each leaf.
+pub(crate) trait PacketVisitor<L: Lanes> {
+    /// Tests the leaf for the rays of `visit.mask`; returns the rays that are finished (an
+    /// any-hit query that found its hit), which then leave the traversal.
+    fn visit(
+        &mut self,
+        l: L,
+        packet: &RayPacket,
+        visit: LeafVisit<'_>,
+        counters: &mut PacketCounters,
+    ) -> u64;
+    /// Closest hit so far per ray (the ray's `tmax` without one): a cell entered after it is
+    /// skipped.
+    fn best_t(&self) -> &Column;
+}
+
+/// Counts a leaf visit of the rays of `visit.mask` and hands it to `visitor`; returns the rays
+/// the visitor has finished.
+#[inline(always)]
+pub(super) fn visit_leaf<L: Lanes, V: PacketVisitor<L>>(
+    l: L,
+    p: &RayPacket,
+    visit: LeafVisit<'_>,
+    visitor: &mut V,
+    counters: &mut PacketCounters,
+) -> u64 {
+    counters.leaf_visits += 1;
+    let rays = u64::from(visit.mask.count_ones());
+    counters.ray_leaf_visits += rays;
+    counters.potential_tests += rays * visit.triangles.ids.len() as u64;
+    #[cfg(feature = "stats")]
+    {
+        counters.active_rays[rays as usize] += 1;
+    }
+    visitor.visit(l, p, visit, counters)
+}
+
+/// The beam for this leaf visit, or `None` when the visit is tested unculled (culling off, too
+/// few triangles or rays for a beam to pay, or no prevalent axis).
+#[inline(always)]
+pub(super) fn leaf_beam<L: Lanes>(
+    l: L,
+    p: &RayPacket,
+    visit: &LeafVisit<'_>,
+    culling: &Culling,
+    best: Option<(&Column, u64)>,
+) -> Option<Beam<L>> {
+    culling
+        .beam_rays(visit.triangles.ids.len(), visit.mask, visit.packet_mask)
+        .and_then(|used| {
+            Beam::new(
+                l,
+                p,
+                used,
+                visit.bounds,
+                best,
+                culling.stages(),
+                visit.scene_bound,
+            )
+        })
+}
+
+/// The blocks of up to 64 triangles of a leaf that hold triangles to test, culled by a beam
+/// when there is one: `(first triangle, survivors)`. An iterator rather than a callback, so
+/// that everything stays inlined into the ISA's `#[target_feature]` entry point.
+pub(super) struct SurvivorBlocks<'v, L: Lanes> {
+    beam: Option<Beam<L>>,
+    triangles: &'v [kdbeam_kernels::Triangle],
+    next: usize,
+    rays: u64,
+    /// Tests the survivors cost (active rays × triangles).
+    tests: u64,
+    #[cfg(feature = "stats")]
+    culled: kdbeam_kernels::beam::CullCounts,
+}
+
+impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
+    #[inline(always)]
+    pub(super) fn new(
+        beam: Option<Beam<L>>,
+        visit: &LeafVisit<'v>,
+        counters: &mut PacketCounters,
+    ) -> Self {
+        counters.beams += u64::from(beam.is_some());
+        SurvivorBlocks {
+            beam,
+            triangles: visit.triangles.triangles,
+            next: 0,
+            rays: u64::from(visit.mask.count_ones()),
+            tests: 0,
+            #[cfg(feature = "stats")]
+            culled: Default::default(),
+        }
+    }
+
+    /// Adds what was culled to `counters` and returns the tests performed.
+    #[inline(always)]
+    pub(super) fn finish(self, counters: &mut PacketCounters) -> u64 {
+        #[cfg(feature = "stats")]
+        {
+            counters.culled_planes += self.rays * u64::from(self.culled.planes);
+            counters.culled_distance += self.rays * u64::from(self.culled.distance);
+            counters.culled_aperture += self.rays * u64::from(self.culled.aperture);
+        }
+        let _ = counters;
+        self.tests
+    }
+}
+
+impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
+    type Item = (usize, Survivors);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<(usize, Survivors)> {
+        while self.next < self.triangles.len() {
+            let first = self.next;
+            let end = (first + 64).min(self.triangles.len());
+            self.next = end;
+            let s = match &mut self.beam {
+                Some(beam) => beam.cull(&self.triangles[first..end]),
+                None => {
+                    let n = end - first;
+                    let all = if n == 64 { u64::MAX } else { (1 << n) - 1 };
+                    Survivors {
+                        mask: all,
+                        ..Survivors::default()
+                    }
+                }
+            };
+            #[cfg(feature = "stats")]
+            {
+                self.culled.planes += s.culled.planes;
+                self.culled.distance += s.culled.distance;
+                self.culled.aperture += s.culled.aperture;
+            }
+            self.tests += self.rays * u64::from(s.mask.count_ones());
+            if s.mask != 0 {
+                return Some((first, s));
+            }
+        }
+        None
+    }
+}
