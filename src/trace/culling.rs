@@ -177,34 +177,85 @@ impl Culling {
         })
     }
 
-    /// The preset's name, or a description of a custom setting.
+    /// The setting's name in the grammar [`Culling`]'s `FromStr` reads, which parses back to it.
+    ///
+    /// Of the bases that fit (`none`, `4plane`, `6plane`, `auto`) the one that needs the fewest
+    /// options is named (`auto` before `6plane` on a tie), then `+aperture` when the aperture
+    /// test is on, then, in this order, each option whose value differs from the base's:
+    /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
+    /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
+    /// the distance-first order as `6plane+aperture/masked/distance-first`.
     pub fn name(&self) -> String {
-        let base = Culling::PRESETS
+        let options = |base: &Culling| {
+            let mut options = Vec::new();
+            if self.frustum != base.frustum {
+                options.push(self.frustum.name().to_string());
+            }
+            if self.aperture_first != base.aperture_first {
+                options.push(order_name(self.aperture_first).to_string());
+            }
+            if self.min_triangles != base.min_triangles {
+                options.push(format!("min-triangles={}", self.min_triangles));
+            }
+            if self.min_rays != base.min_rays {
+                options.push(format!("min-rays={}", self.min_rays));
+            }
+            options
+        };
+        let (base_name, options) = BASES
             .iter()
-            .find(|(_, c)| {
-                Culling {
-                    frustum: self.frustum,
-                    aperture_first: self.aperture_first,
-                    ..*c
-                } == *self
-            })
-            .map(|(n, _)| n.to_string())
-            .unwrap_or_else(|| format!("{self:?}"));
-        if !self.is_enabled() || *self == Culling::AUTO {
-            return base;
+            .filter(|(_, base)| base.planes == self.planes)
+            .map(|(name, base)| (*name, options(base)))
+            .min_by_key(|(_, options)| options.len())
+            .expect("every `Planes` has a base");
+        let mut name = base_name.to_string();
+        if self.aperture {
+            name.push_str("+aperture");
         }
-        let frustum = match self.frustum {
+        for option in options {
+            name.push('/');
+            name.push_str(&option);
+        }
+        name
+    }
+}
+
+/// The bases of the grammar, each with the settings it stands for; `auto` before `6plane`, so
+/// that [`Culling::name`] prefers it on a tie.
+const BASES: [(&str, Culling); 4] = [
+    ("none", Culling::NONE),
+    ("4plane", Culling::planes(Planes::Four, false)),
+    ("auto", Culling::AUTO),
+    ("6plane", Culling::planes(Planes::Six, false)),
+];
+
+/// The option that sets [`Culling::aperture_first`].
+fn order_name(aperture_first: bool) -> &'static str {
+    if aperture_first {
+        "aperture-first"
+    } else {
+        "distance-first"
+    }
+}
+
+impl Frustum {
+    /// Every frustum.
+    pub const ALL: [Frustum; 4] = [
+        Frustum::Maskless,
+        Frustum::Masked,
+        Frustum::Adaptive,
+        Frustum::Packet,
+    ];
+
+    /// Its option in the culling grammar, without the `/`: `maskless`, `masked`, `adaptive`,
+    /// `packet`.
+    pub fn name(self) -> &'static str {
+        match self {
             Frustum::Maskless => "maskless",
             Frustum::Masked => "masked",
             Frustum::Adaptive => "adaptive",
             Frustum::Packet => "packet",
-        };
-        let order = if self.aperture && self.planes == Planes::Six && !self.aperture_first {
-            ",distance-first"
-        } else {
-            ""
-        };
-        format!("{base}/{frustum}{order}")
+        }
     }
 }
 
@@ -215,84 +266,236 @@ impl Default for Culling {
 }
 
 impl fmt::Display for Culling {
+    /// [`Culling::name`].
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.name())
     }
 }
 
+/// What the culling grammar accepts, for error messages.
+const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, then any of \
+    /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
+    /min-rays=N (at most one of each kind): e.g. 6plane+aperture/masked/distance-first";
+
 impl FromStr for Culling {
     type Err = Error;
 
-    /// Parses a preset (`none`, `4plane`, `6plane`, `4plane+aperture`, `6plane+aperture`,
-    /// `auto`), optionally followed by `/masked`, `/maskless`, `/adaptive` or `/packet` and
-    /// `,distance-first` or `,aperture-first`: e.g. `6plane+aperture/masked,distance-first`.
+    /// Parses the culling grammar, ignoring ASCII case and surrounding whitespace: `+` joins
+    /// stages to a base, `/` precedes each option, and nothing contains a comma (so that lists
+    /// of settings can be comma separated).
+    ///
+    /// - The base: `none`, `4plane`, `6plane` (fixed planes on every leaf visit, maskless) or
+    ///   `auto` ([`Culling::AUTO`]); then `+aperture` adds the aperture test. Every preset of
+    ///   [`Culling::PRESETS`] is such a name (`4plane+aperture`, `6plane+aperture`).
+    /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`), the order
+    ///   (`/aperture-first`, `/distance-first`), and the leaves and visits that skip culling
+    ///   (`/min-triangles=N`, `/min-rays=N`), at most one of each kind, in any order.
+    ///
+    /// [`Culling::name`] prints every setting in this grammar, and it parses back to the same
+    /// setting.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] named `culling` for anything else: an unknown base, stage or
+    /// option, a repeated stage or option kind, an empty part, a comma.
+    ///
+    /// ```
+    /// use kdbeam::trace::{Culling, Frustum};
+    /// let c: Culling = "6plane+aperture/masked/distance-first".parse()?;
+    /// assert_eq!(c, Culling::FULL.with_frustum(Frustum::Masked).with_aperture_first(false));
+    /// assert_eq!(c.to_string(), "6plane+aperture/masked/distance-first");
+    /// assert!("6plane,distance-first".parse::<Culling>().is_err());
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
     fn from_str(s: &str) -> Result<Culling> {
-        let bad = || {
-            Error::InvalidParameter {
+        let bad = |why: String| Error::InvalidParameter {
             name: "culling",
-            message: format!(
-                "expected none, 4plane, 6plane, 4plane+aperture, 6plane+aperture or auto, \
-                 optionally /masked|/maskless|/adaptive|/packet and ,distance-first|,aperture-first; \
-                 got {s:?}"
-            ),
+            message: format!("{why} in {s:?}; expected {GRAMMAR}"),
+        };
+        let lower = s.trim().to_ascii_lowercase();
+        if lower.contains(',') {
+            return Err(bad("a comma (options follow a /)".into()));
         }
-        };
-        let s = s.trim().to_ascii_lowercase();
-        let (rest, order) = match s.split_once(',') {
-            Some((r, o)) => (r, Some(o)),
-            None => (s.as_str(), None),
-        };
-        let (preset, frustum) = match rest.split_once('/') {
-            Some((p, f)) => (p, Some(f)),
-            None => (rest, None),
-        };
-        let mut c = Culling::PRESETS
+        let mut parts = lower.split('/');
+        let mut stages = parts.next().unwrap_or_default().split('+');
+        let base = stages.next().unwrap_or_default();
+        let mut c = BASES
             .iter()
-            .find(|(n, _)| *n == preset)
-            .ok_or_else(bad)?
+            .find(|(name, _)| *name == base)
+            .ok_or_else(|| bad(format!("unknown base {base:?}")))?
             .1;
-        match frustum {
-            None => {}
-            Some("masked") => c.frustum = Frustum::Masked,
-            Some("maskless") => c.frustum = Frustum::Maskless,
-            Some("adaptive") => c.frustum = Frustum::Adaptive,
-            Some("packet") => c.frustum = Frustum::Packet,
-            Some(_) => return Err(bad()),
+        let mut aperture = false;
+        for stage in stages {
+            match stage {
+                "aperture" if !aperture => aperture = true,
+                "aperture" => return Err(bad("aperture twice".into())),
+                _ => return Err(bad(format!("unknown stage {stage:?}"))),
+            }
         }
-        match order {
-            None => {}
-            Some("distance-first") => c.aperture_first = false,
-            Some("aperture-first") => c.aperture_first = true,
-            Some(_) => return Err(bad()),
+        c.aperture |= aperture;
+        let (mut frustum, mut order, mut triangles, mut rays) = (None, None, None, None);
+        for option in parts {
+            let (slot, value) = match option.split_once('=') {
+                Some(("min-triangles", n)) => (&mut triangles, n),
+                Some(("min-rays", n)) => (&mut rays, n),
+                _ => {
+                    match Frustum::ALL.into_iter().find(|f| f.name() == option) {
+                        Some(f) if frustum.is_none() => frustum = Some(f),
+                        Some(_) => return Err(bad("two frustum options".into())),
+                        None => {
+                            match [true, false].into_iter().find(|&a| order_name(a) == option) {
+                                Some(a) if order.is_none() => order = Some(a),
+                                Some(_) => return Err(bad("two order options".into())),
+                                None => return Err(bad(format!("unknown option {option:?}"))),
+                            }
+                        }
+                    }
+                    continue;
+                }
+            };
+            if slot.is_some() {
+                return Err(bad(format!("{option:?} repeats its option")));
+            }
+            let n = value
+                .parse::<u32>()
+                .map_err(|_| bad(format!("{option:?} needs a count from 0 to 2^32 − 1")))?;
+            *slot = Some(n);
         }
+        c.frustum = frustum.unwrap_or(c.frustum);
+        c.aperture_first = order.unwrap_or(c.aperture_first);
+        c.min_triangles = triangles.unwrap_or(c.min_triangles);
+        c.min_rays = rays.unwrap_or(c.min_rays);
         Ok(c)
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use std::collections::HashSet;
+
     use super::*;
 
-    #[test]
-    fn presets_round_trip_through_their_names() {
-        for (name, c) in Culling::PRESETS {
-            assert_eq!(name.parse::<Culling>().unwrap(), c);
-            // Without a beam the frustum means nothing, so "none" names every frustum.
-            if c.is_enabled() {
-                let masked = c.with_frustum(Frustum::Masked);
-                let parsed = masked.name().parse::<Culling>().unwrap();
-                assert_eq!(parsed, masked, "{}", masked.name());
+    /// Every base, with and without the aperture test.
+    fn stage_lists() -> Vec<String> {
+        BASES
+            .iter()
+            .flat_map(|(name, _)| [name.to_string(), format!("{name}+aperture")])
+            .collect()
+    }
+
+    /// Every combination of options, each kind absent or set to each of its values.
+    fn option_lists() -> Vec<String> {
+        let frusta = std::iter::once(None).chain(Frustum::ALL.map(|f| Some(f.name())));
+        let mut lists = Vec::new();
+        for frustum in frusta {
+            for order in [None, Some("aperture-first"), Some("distance-first")] {
+                for triangles in [None, Some("min-triangles=0"), Some("min-triangles=7")] {
+                    for rays in [None, Some("min-rays=1"), Some("min-rays=64")] {
+                        let options = [frustum, order, triangles, rays];
+                        lists.push(
+                            options
+                                .into_iter()
+                                .flatten()
+                                .map(|o| format!("/{o}"))
+                                .collect(),
+                        );
+                    }
+                }
             }
         }
+        lists
+    }
+
+    #[test]
+    fn every_base_stage_and_option_parses_and_prints_back() {
+        let (mut names, mut settings) = (HashSet::new(), HashSet::new());
+        for stages in stage_lists() {
+            for options in option_lists() {
+                let text = format!("{stages}{options}");
+                let c: Culling = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
+                assert_eq!(c.aperture, stages.ends_with("+aperture"), "{text}");
+                let name = c.to_string();
+                assert!(!name.contains(','), "{name}");
+                assert_eq!(
+                    name.parse::<Culling>().unwrap(),
+                    c,
+                    "{text} printed as {name}"
+                );
+                names.insert(name);
+                settings.insert(c);
+                // Upper case, spaces around, and the options in reverse order: the same setting.
+                let mut reversed: Vec<&str> = options.split('/').skip(1).collect();
+                reversed.reverse();
+                let shuffled = format!(
+                    " {} ",
+                    [stages.as_str()]
+                        .into_iter()
+                        .chain(reversed)
+                        .collect::<Vec<_>>()
+                        .join("/")
+                );
+                assert_eq!(
+                    shuffled.to_uppercase().parse::<Culling>().unwrap(),
+                    c,
+                    "{shuffled}"
+                );
+            }
+        }
+        // One name per setting, and many settings covered.
+        assert_eq!(names.len(), settings.len());
+        assert!(settings.len() > 300, "{}", settings.len());
+    }
+
+    #[test]
+    fn presets_and_variants_print_as_their_names() {
+        for (name, c) in Culling::PRESETS {
+            assert_eq!(name.parse::<Culling>().unwrap(), c);
+            assert_eq!(c.to_string(), name);
+        }
+        for c in Culling::VARIANTS {
+            assert_eq!(c.to_string().parse::<Culling>().unwrap(), c, "{c}");
+        }
         let c: Culling = "6plane/packet".parse().unwrap();
-        assert!(c.interval_traversal() && c.name() == "6plane/packet");
+        assert!(c.interval_traversal() && c.to_string() == "6plane/packet");
         assert!(!Culling::NONE
             .with_frustum(Frustum::Packet)
             .interval_traversal());
-        let c: Culling = "6plane+aperture/masked,distance-first".parse().unwrap();
-        assert_eq!((c.frustum, c.aperture_first), (Frustum::Masked, false));
-        assert_eq!(c.name().parse::<Culling>().unwrap(), c);
-        assert!("7plane".parse::<Culling>().is_err());
-        assert!("4plane/sideways".parse::<Culling>().is_err());
+        let c = Culling::FULL
+            .with_frustum(Frustum::Masked)
+            .with_aperture_first(false);
+        assert_eq!(c.to_string(), "6plane+aperture/masked/distance-first");
+        assert_eq!(
+            Culling::AUTO.with_frustum(Frustum::Masked).to_string(),
+            "auto/masked"
+        );
+    }
+
+    #[test]
+    fn bad_strings_are_invalid_parameters() {
+        for bad in [
+            "",
+            "7plane",
+            "4plane/sideways",
+            "6plane,distance-first",
+            "6plane+aperture/masked,distance-first",
+            "6plane+raybox",
+            "6plane+aperture+aperture",
+            "aperture",
+            "6plane/",
+            "6plane//masked",
+            "6plane/masked/packet",
+            "6plane/distance-first/aperture-first",
+            "6plane/min-triangles=",
+            "6plane/min-triangles=-1",
+            "6plane/min-triangles=1/min-triangles=2",
+            "6plane/min-rays=x",
+            "auto/min-rays",
+        ] {
+            match bad.parse::<Culling>() {
+                Err(Error::InvalidParameter {
+                    name: "culling", ..
+                }) => {}
+                other => panic!("{bad:?}: {other:?}"),
+            }
+        }
     }
 }
