@@ -1,5 +1,6 @@
-//! The transient frustum ("beam") of a packet in a leaf: Reshetov, *Faster Ray Packets –
-//! Triangle Intersection through Vertex Culling*, RT07 (`papers/001_…`), section 2.
+//! The transient frustum ("beam") of a packet in a leaf: Alexander Reshetov, *Faster Ray
+//! Packets – Triangle Intersection through Vertex Culling*, IEEE Symposium on Interactive Ray
+//! Tracing (RT07), 2007, section 2.
 //!
 //! Each time a packet enters a leaf, a frustum is built around the rays it uses ([`Beam::new`]),
 //! and every triangle of the leaf is checked against it before any ray is tested
@@ -374,7 +375,7 @@ impl<L: Lanes> Beam<L> {
     /// so a triangle entirely at `x' > far` can only be hit farther away: cull.
     ///
     /// **Aperture (corner rays).** Only when all four corner rays cross the triangle's plane
-    /// strictly inside the slab with one sign of `n·D` (the guard of DESIGN.md): then the plane
+    /// strictly inside the slab with one sign of `n·D` (the guard): then the plane
     /// separates the entry rectangle from the exit rectangle, so `F ∩ plane` is exactly the
     /// convex hull of the four crossings (the four corner edges are the only edges of `F` that
     /// cross it), and barycentrics are affine on the plane. If `u < 0` at all four crossings, or

@@ -214,8 +214,7 @@ pub fn cheapest_plane<L: Lanes>(
     }
     // Across the lanes by the same rule: the lowest weight, then among its lanes the lowest
     // position, without a branch. Ties are common: a mesh's neighbouring boxes share faces,
-    // listed once per box. Branching to the tie rule only on a tie, with a third reduction
-    // for the lowest index, cost 3% of the dragon's build (rebuild A/B), in mispredictions.
+    // listed once per box, so a branch to the tie rule would be taken often and mispredicted.
     let weight = best_weight.reduce_min();
     if weight == f32::INFINITY {
         return None;

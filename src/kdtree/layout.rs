@@ -143,9 +143,9 @@ impl Layout {
         self.max_depth = 0;
     }
 
-    /// Makes room for the tree of `triangles` triangles as most meshes need it: the scenes of
-    /// the benches have 1.5–2.2 nodes, 1.5–2.7 references and 0.3–0.45 non-empty leaves per
-    /// triangle (sponza 4.9, 4.3 and 1.4). Growing a long array would copy it into new pages,
+    /// Makes room for the tree of `triangles` triangles as most meshes need it: about two
+    /// nodes, two references and half a non-empty leaf per triangle (architectural scenes need
+    /// more, and grow). Growing a long array would copy it into new pages,
     /// and each page's first write is a page fault. Address space only: pages are touched as
     /// used.
     pub fn reserve_for(&mut self, triangles: usize) {

@@ -33,7 +33,7 @@ pub struct BuildParams {
     /// Nodes with at most this many triangles choose their plane exactly, among every face of
     /// their triangles' clipped boxes (counted in SIMD lanes up to 128 triangles, by Wald &
     /// Havran's sweep above); larger ones among 32 bins per axis. The build-quality
-    /// knob: lower builds faster and gives slightly costlier trees (README, "Build"). `0` bins
+    /// knob: lower builds faster and gives slightly costlier trees. `0` bins
     /// every node (on a regular grid, whose triangles line the bins' boundaries, that can take
     /// many more nodes); `u32::MAX` searches every node exactly, in O(N log² N) time and with
     /// up to 144 bytes of scratch per triangle of the root (its sorted events and candidates).

@@ -31,10 +31,26 @@ pub enum Frustum {
     /// Masked when fewer than half of the packet's rays are active in the leaf, else maskless.
     Adaptive,
     /// The whole packet, all the way down: the packet traverses the tree as one interval of
-    /// `t` (no per-ray masks; see `traverse_octant_interval`), and every leaf it enters is
-    /// culled by the beam of all its rays. An inner node costs a few scalar operations instead
-    /// of one split test per group of lanes; the beam does the per-ray work. With no planes it
-    /// is the per-ray traversal.
+    /// `t` (no per-ray masks), and every leaf it enters is culled by the beam of all its rays.
+    /// An inner node costs a few scalar operations instead of one split test per group of
+    /// lanes; the beam does the per-ray work. With no planes it is the per-ray traversal.
+    ///
+    /// **Where its hits may differ from the per-ray path.** A leaf's rays are those whose
+    /// segment up to their best hit meets the leaf's box, so a ray is also tested against the
+    /// triangles of leaves its own traversal never enters: every test the per-ray path makes is
+    /// made, plus some. A ray's closest hit therefore differs from [`Tracer::intersect`]'s only
+    /// where such an extra test finds a hit that beats it: a smaller `t`, or the same `t` with a
+    /// smaller triangle id (in practice a ray through an edge or vertex shared with a triangle
+    /// of a neighbouring leaf, won by rounding or by the tie rule). That hit is exactly what the
+    /// intersector reports for that triangle alone, so it is never farther than the per-ray
+    /// path's, never a triangle the ray does not hit, and a miss there can only become such a
+    /// hit; [`Tracer::occluded_packet`] may likewise report a ray occluded by it. Nothing else
+    /// differs. The test `culling_never_changes_a_hit_on_procedural_and_adversarial_scenes`
+    /// (`tests/culling_vs_none.rs`) and the fuzz target `culling` check every such difference
+    /// with `wins_by_an_extra_test` (`tests/fuzz_checks/mod.rs`).
+    ///
+    /// [`Tracer::intersect`]: crate::Tracer::intersect
+    /// [`Tracer::occluded_packet`]: crate::Tracer::occluded_packet
     Packet,
 }
 
@@ -83,8 +99,8 @@ impl Culling {
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
     /// triangles, visits with a single active ray), masked when fewer than half the packet's
-    /// rays remain. No aperture test: on the bunny it culls about 1% more tests than the planes
-    /// and costs more than that saves (`kdbeam render bunny --culling …`).
+    /// rays remain. No aperture test: on real scenes it culls few tests beyond the planes, and
+    /// costs more than that saves (`kdbeam bench SCENE --culling auto,auto+aperture` compares).
     pub const AUTO: Culling = Culling {
         planes: Planes::Six,
         aperture: false,

@@ -1,5 +1,6 @@
 //! Packets against one leaf, without a tree: the kernel the synthetic benchmark measures
-//! (Reshetov, RT07, section 3.1: cycles per ray–triangle test).
+//! (Alexander Reshetov, *Faster Ray Packets – Triangle Intersection through Vertex Culling*,
+//! RT07, section 3.1: cycles per ray–triangle test).
 //!
 //! Each packet runs exactly what the packet traversal runs when it enters a leaf with every ray
 //! active: the beam around all its rays (maskless, no hits yet, so no far plane but an

@@ -189,10 +189,17 @@ impl<'t> Tracer<'t> {
     /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.
     ///
     /// Rays of one packet may have any origins and directions: rays whose direction signs
-    /// differ are traced as separate sub-packets, one per octant. Each ray's hit equals
-    /// [`Tracer::intersect`] on the same ray (the differential tests check this on every ISA);
-    /// inactive rays and rays that cannot be traced get [`Hit::NONE`] and never change the
-    /// other rays' results.
+    /// differ are traced as separate sub-packets, one per octant. Inactive rays and rays that
+    /// cannot be traced get [`Hit::NONE`] and never change the other rays' results.
+    ///
+    /// Each ray's hit equals [`Tracer::intersect`] on the same ray, bit for bit (`t`, `u`, `v`,
+    /// triangle id), on every ISA and with every culling setting but one
+    /// (`tests/packet_vs_scalar.rs` and `tests/culling_vs_none.rs` check this). The exception is
+    /// [`Frustum::Packet`] with planes on: its whole-packet traversal also tests triangles of
+    /// leaves the ray's own traversal does not enter, and a ray's hit then differs exactly where
+    /// such a test beats the per-ray hit — a smaller `t`, or an equal `t` with a smaller
+    /// triangle id — with a hit the intersector reports for that triangle alone (a real hit,
+    /// never a farther one; see [`Frustum::Packet`]).
     pub fn intersect_packet(
         &self,
         packet: &RayPacket,
@@ -281,7 +288,9 @@ impl<'t> Tracer<'t> {
     }
 
     /// The rays of `packet` whose bit is set in `active` that hit anything in `[tmin, tmax]`,
-    /// as a bit mask.
+    /// as a bit mask: [`Tracer::occluded`] of each ray, except that with [`Frustum::Packet`] a
+    /// ray may also be reported occluded by a real hit that only the whole-packet traversal's
+    /// extra tests find (see [`Tracer::intersect_packet`]).
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
         match (self.intersector, self.culling.interval_traversal()) {
             (Intersector::KenslerShirley, false) => {

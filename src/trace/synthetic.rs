@@ -1,6 +1,7 @@
 //! The synthetic benchmark: the leaf kernel of [`super::leaf`] timed on a
-//! [`SyntheticCell`] (Reshetov, "Faster Ray Packets – Triangle Intersection through Vertex
-//! Culling", RT07, section 3.1: cycles per ray–triangle test).
+//! [`SyntheticCell`] (Alexander Reshetov, *Faster Ray Packets – Triangle Intersection through
+//! Vertex Culling*, IEEE Symposium on Interactive Ray Tracing (RT07), 2007, section 3.1: cycles
+//! per ray–triangle test).
 
 use kdbeam_kernels::lanes::{tsc, Dispatch};
 use kdbeam_kernels::HitPacket;

@@ -1,4 +1,6 @@
-//! The Kensler–Shirley ray × triangle test (RT06), the baseline.
+//! The Kensler–Shirley ray × triangle test, the baseline: Andrew Kensler and Peter Shirley,
+//! *Optimizing Ray-Triangle Intersection via Automated Search*, IEEE Symposium on Interactive
+//! Ray Tracing (RT06), 2006.
 //!
 //! Per triangle ([`KsTriangle`]): `e0 = p1 − p0`, `e1 = p0 − p2`, `n = e0 × e1`. Per ray, with
 //! `c = p0 − o`:

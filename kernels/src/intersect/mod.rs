@@ -9,7 +9,7 @@
 //! Three *distinct* collinear vertices are another matter: each test sees them through its own
 //! roundings (Kensler–Shirley's edge differences, the watertight shear), which can leave a sliver
 //! about one ulp wide that a ray aimed exactly at the segment may hit (with the watertight test,
-//! 5.5% of rays aimed at collinear triangles with small integer coordinates did; Kensler–Shirley
+//! some rays aimed at collinear triangles with small integer coordinates do; Kensler–Shirley
 //! computes `n = 0` exactly there and never hits). Zero-area triangles belong in mesh validation.
 //!
 //! Each test has a single-ray form and a lane form generic over [`Lanes`]; the two share their

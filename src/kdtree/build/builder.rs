@@ -69,8 +69,7 @@ impl KdTree {
 /// `KdTreeBuilder`, into the previous frame's tree ([`KdTreeBuilder::rebuild`]), reuses the
 /// memory of both instead of asking the system for fresh pages: the trees are the same as
 /// [`KdTree::build`]'s, bit for bit. The builder holds its buffers (about 80 bytes per
-/// triangle reference of the largest tree it built: 20 MB for the 100k-triangle dragon, whose
-/// tree has 256k references) until it is dropped.
+/// triangle reference of the largest tree it built) until it is dropped.
 ///
 /// ```
 /// use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Mesh};

@@ -18,15 +18,9 @@
 //!
 //! O(N log N): a binned node costs O(n); a small node O(n²) for n ≤ [`COUNTED_SEARCH_MAX`], or
 //! O(n log `exact_search_max`), a constant per triangle either way; the depth limit keeps the
-//! levels O(log N). Counting replaced the sort and sweep of nodes up to 64 triangles: 16% fewer
-//! instructions in the dragon's build, and 8–11% less time on the dragon and the bunny (AVX2,
-//! three A/B rounds). Three alternatives for the small nodes had measured more
-//! instructions than the sort: keeping their event lists sorted through the splits, as Wald &
-//! Havran do (12% more); counting each candidate's sides with 4-wide compares in the baseline
-//! ISA, the costs left scalar, in nodes of at most 16 triangles (4%); and sweeping the sorted
-//! events at each search of a node instead of storing its candidates once (5%). The default
-//! threshold and the bin count were chosen by measured build time and SAH tree cost on the
-//! shared scenes.
+//! levels O(log N). Small nodes are counted rather than sorted and swept: the counting is
+//! branch-free and runs in SIMD lanes, where the sort's comparisons are mispredicted. The
+//! default threshold and the bin count trade build time against SAH tree cost.
 //!
 //! A node's references ([`Ref`]: ids and clipped boxes) are a run of one per-thread stack:
 //! a split writes its below child's over them and pushes its above child's, which are popped

@@ -180,8 +180,8 @@ pub(super) fn build_children(
 /// triangles' clipped boxes (which lies inside the cell).
 ///
 /// The ids are not sorted: the closest hit breaks ties in `t` by the smaller id wherever the
-/// triangles lie ([`kdbeam_kernels::Hit::is_beaten_by`]), so the order changes no result, and
-/// sorting the small leaves took 3% of the dragon's build.
+/// triangles lie ([`kdbeam_kernels::Hit::is_beaten_by`]), so the order changes no result and
+/// sorting would cost build time for nothing.
 pub(super) fn make_leaf(
     node: &BoxNode,
     scratch: &Scratch,

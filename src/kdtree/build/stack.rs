@@ -14,10 +14,10 @@ const _: () = assert!(
 );
 
 /// The stack's first reservation, in references per triangle (address space: its pages are
-/// touched only as the stack reaches them). The scenes of the benches reach 2.0–3.1 at the
-/// deepest (terrain, bunny, dragon, sponza, killeroo), so the stack seldom grows, which would
-/// copy it into new pages; and [`Scratch::hand_over_stack`] can lend it to trees of up to 2⅔
-/// references per triangle (the dragon's has 2.56).
+/// touched only as the stack reaches them). Meshes seldom need more than three at the
+/// deepest, so the stack seldom grows, which would copy it into new pages; and
+/// [`Scratch::hand_over_stack`] can lend it to trees of up to 2⅔ references per triangle, as
+/// most are.
 pub(super) const STACK_PER_TRIANGLE: usize = 4;
 
 /// Makes room for `len` references in the stack `refs`, growing it geometrically, to a capacity
@@ -39,7 +39,7 @@ impl Scratch {
     /// For a builder about to be dropped ([`KdTree::build`]): a process's first build otherwise
     /// writes its 48 bytes per triangle reference on fresh pages from the system, each costing
     /// a page fault, while the stack's pages (32 bytes per reference at its deepest) have been
-    /// written already. On the dragon that saves 1,704 of 8,832 page faults. Nothing happens
+    /// written already, so fewer pages are faulted in. Nothing happens
     /// when the stack cannot hold `needed` triangles (growing it would copy its stale bytes
     /// to a new allocation) or its capacity is not a whole number of triangles.
     pub(super) fn hand_over_stack(&mut self, ks: &mut Vec<KsTriangle>, needed: usize) {

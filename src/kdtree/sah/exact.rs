@@ -14,9 +14,8 @@ use crate::kdtree::BuildParams;
 
 /// Exact searches of nodes of at most this many triangles count their planes in SIMD lanes
 /// ([`ExactPlanes::count`]), `O(n²)` but branch-free; larger ones (when
-/// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. On the
-/// dragon with exact searches up to 128 triangles, counting them all built in 145.6 ms against
-/// 149.1 ms for sweeping those above 64 (one run each: within the noise, so not slower).
+/// [`BuildParams::exact_search_max`] is raised above it) sort and sweep their events. Up to
+/// this size counting is no slower than the sweep.
 pub(crate) const COUNTED_SEARCH_MAX: usize = 128;
 
 /// Room for the planes of a counted search: a power of two, so that a mask keeps indices in
@@ -41,7 +40,7 @@ pub(crate) struct ExactPlanes {
 /// Counted searches of at least this many triangles drop repeated positions
 /// ([`ExactPlanes::fill`]). Smaller nodes list few planes per axis, which the repeats seldom
 /// push past a multiple of 8 lanes, so the table's reset and lookups cost more than they
-/// spare: on the dragon, of 8, 12, 16 and 24, 12 and 16 built in the fewest instructions.
+/// spare.
 const DEDUP_MIN: usize = 16;
 
 /// Per axis, a direct-mapped table of the positions [`ExactPlanes::fill`] has met in a node,
@@ -83,9 +82,8 @@ impl ExactPlanes {
     /// inside is as good as random). From [`DEDUP_MIN`] boxes on, a position already listed on
     /// its axis is mostly left out.
     ///
-    /// Why: a mesh's triangles share vertices, so neighbouring boxes share faces (on the
-    /// dragon, 2.97 M of the positions listed in a build but 1.59 M distinct per node and
-    /// axis), and each plane listed is counted against every box, then costed once per
+    /// Why: a mesh's triangles share vertices, so neighbouring boxes share faces (in a real
+    /// mesh many of the positions listed on an axis are repeats), and each plane listed is counted against every box, then costed once per
     /// [`CostModel::best_split`]. Leaving a repeat out changes no split: equal positions have
     /// equal counts, hence equal costs, and are one plane to the cheapest plane's ties, which
     /// go to the lowest position; the first listed stays.
@@ -115,9 +113,9 @@ impl ExactPlanes {
             .seen
             .0
             .get_or_insert_with(|| Box::new([[UNSEEN; COUNTED_PLANES]; 3]));
-        // Slots used: a power of two, from 2 · refs.len() (the fewest instructions on the
-        // dragon, against 1 and 4 per box) up to `COUNTED_PLANES`, so `% COUNTED_PLANES` never
-        // wraps a slot, and spares the bounds checks.
+        // Slots used: a power of two, from 2 · refs.len() (few collisions for a small table)
+        // up to `COUNTED_PLANES`, so `% COUNTED_PLANES` never wraps a slot, and spares the
+        // bounds checks.
         let shift = if DEDUP {
             let slots = (2 * refs.len()).next_power_of_two();
             for seen in [&mut *seen_x, &mut *seen_y, &mut *seen_z] {

@@ -15,9 +15,8 @@ use crate::trace::single::split_intervals;
 use crate::trace::single::{root_bounds, INTERVAL_EPS, STACK_DEPTH};
 
 /// Inner nodes a whole-packet traversal may visit before it hands its rays to the per-ray
-/// traversal: about ten times what an 8×8 primary packet visits on the bunny (18 on average at
-/// ci_over_ct 0.03), far fewer than a diverging packet can (26,951 for four rays on the
-/// icosphere).
+/// traversal: several times what a coherent primary packet visits, and far fewer than the
+/// interval of a diverging packet can cover (its bounds then span most of the tree).
 pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 
 /// Traverses `tree` with the rays of `mask` (traceable, sharing the direction signs `octant`)
