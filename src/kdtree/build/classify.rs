@@ -32,6 +32,7 @@ pub(super) fn sides_of(lo: f32, hi: f32, p: f32, planar_below: bool) -> (bool, b
 /// `scratch.refs`, and the above child's are pushed on top, so that the stack grows by the
 /// above children alone on the way down; within each, the one-sided triangles come first, in
 /// the node's order, then the clipped ones.
+#[inline]
 pub(super) fn split_boxes(
     context: &Context<'_>,
     node: &BoxNode,

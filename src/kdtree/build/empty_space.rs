@@ -69,6 +69,7 @@ pub(super) fn cut_off_empty_space(
 
 /// Closes the cuts [`cut_off_empty_space`] left open above `mark` (a node's), innermost first,
 /// once the rest of the node has been built: each gets its empty above leaf.
+#[inline]
 pub(super) fn close_cuts(out: &mut Layout, open: &mut Vec<OpenCut>, mark: usize) -> Result<()> {
     for cut in open.drain(mark..).rev() {
         out.close_inner(cut.at, cut.axis, cut.position)?;

@@ -17,6 +17,7 @@ use crate::Result;
 
 /// Fills `planes` with those of a small node with references `refs` in `cell` by Wald &
 /// Havran's sweep: the boxes' events, sorted per axis in `events`, swept.
+#[inline]
 pub(super) fn sweep_planes(
     events: &mut [Vec<Event>; 3],
     planes: &mut ExactPlanes,
@@ -110,6 +111,7 @@ pub(super) fn build_subtree(
 }
 
 /// The union of the boxes of `refs`.
+#[inline]
 pub(super) fn union_of(refs: &[Ref]) -> Aabb {
     let mut union = Bounds::EMPTY;
     for r in refs {
@@ -119,6 +121,7 @@ pub(super) fn union_of(refs: &[Ref]) -> Aabb {
 }
 
 /// Whether a node of `n` triangles at `depth` may be split at all.
+#[inline]
 pub(super) fn may_split(context: &Context<'_>, n: usize, depth: u32) -> bool {
     n > context.leaf_size && depth < context.depth_limit
 }
@@ -182,6 +185,7 @@ pub(super) fn build_children(
 /// The ids are not sorted: the closest hit breaks ties in `t` by the smaller id wherever the
 /// triangles lie ([`kdbeam_kernels::Hit::is_beaten_by`]), so the order changes no result and
 /// sorting would cost build time for nothing.
+#[inline]
 pub(super) fn make_leaf(
     node: &BoxNode,
     scratch: &Scratch,

@@ -23,6 +23,7 @@ pub(super) const STACK_PER_TRIANGLE: usize = 4;
 /// Makes room for `len` references in the stack `refs`, growing it geometrically, to a capacity
 /// that is a multiple of [`REFS_PER_KS_PAIR`]: a whole number of Kensler–Shirley triangles, so
 /// that [`Scratch::hand_over_stack`] can recycle it.
+#[inline]
 pub(super) fn reserve_stack(refs: &mut Vec<Ref>, len: usize) {
     if refs.capacity() < len {
         let capacity = len

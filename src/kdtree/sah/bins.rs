@@ -46,6 +46,7 @@ impl Bins {
     /// The candidates of the non-empty boxes of `refs` (at most 2³² − 1), whose union is
     /// `union`. Counts are converted to f32, exact below 2²⁴ (beyond, rounding only blurs
     /// near-ties).
+    #[inline]
     pub fn new(refs: &[Ref], union: Aabb) -> Bins {
         let per_unit = BINS as f32 / union.extent();
         let (mut starts, mut ends) = ([[0u32; BINS]; 3], [[0u32; BINS]; 3]);

@@ -66,6 +66,7 @@ impl CostModel {
     /// Ties: on an axis the lowest weight `λ · (P_b·N_b + P_a·N_a)` wins, then the lowest
     /// position; between axes the lowest cost, then the first axis. The triangles lying in the
     /// plane go below when both sides cost the same.
+    #[inline]
     pub fn best_split(
         &self,
         dispatch: Dispatch,
@@ -95,6 +96,7 @@ impl CostModel {
     /// the plane of an axis: two weights can round to one cost.) Triangles lying in a plane go
     /// below, except at the union's lower face (where they go above, so that the below side is
     /// empty).
+    #[inline]
     pub fn best_binned_split(&self, dispatch: Dispatch, bins: &Bins, cell: &Aabb) -> Option<Split> {
         self.cheapest(dispatch, bins, cell, |axis, index, _| {
             bins.split(axis, index)

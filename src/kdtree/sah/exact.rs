@@ -72,6 +72,7 @@ impl ExactPlanes {
     ///
     /// # Panics
     /// If `refs` holds more than [`COUNTED_SEARCH_MAX`] references.
+    #[inline]
     pub fn count(&mut self, dispatch: Dispatch, refs: &[Ref], cell: &Aabb) {
         self.fill(refs, cell);
         dispatch.run(Count { planes: self, refs });
@@ -170,6 +171,7 @@ impl ExactPlanes {
     /// numbers of end, planar and start events there, `N_above −= p⁻ + p|`, the plane is
     /// recorded, then `N_below += p⁺ + p|`. Written as one pass that records where the position
     /// changes, with the counts updated without branches on the event kind.
+    #[inline]
     pub fn sweep(&mut self, events: &[Vec<Event>; 3], n: usize, cell: &Aabb) {
         for (axis, (list, out)) in events.iter().zip(&mut self.axes).enumerate() {
             out.make_room(list.len());
