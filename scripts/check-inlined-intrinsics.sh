@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Fails when the release CLI calls a `core::arch` intrinsic out of line.
+# Fails when the release CLI (cli/, binary `kdbeam`) calls a `core::arch` intrinsic out of line.
 #
 # The kernels are generic over `Lanes` and reach an ISA's target features only by being inlined
 # into its entry point (`kernels/src/lanes/`). Code that is not inlined there (typically the

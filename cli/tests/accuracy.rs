@@ -1,4 +1,4 @@
-//! The accuracy comparison (`kdbeam::report::accuracy`) finds what it should.
+//! The accuracy comparison (`kdbeam_cli::report::accuracy`) finds what it should.
 //!
 //! 1. Culling is exact: against the unculled hits as reference, every culling mode of
 //!    `kdbeam accuracy` has 0 disagreements, 0 wrong ids, 0 ties and a `t` error of exactly 0
@@ -8,12 +8,12 @@
 //!    relative error of 1e-3; a dropped hit is a disagreement, a far triangle a wrong id, the
 //!    neighbour across a shared edge a tie.
 
-use kdbeam::render::RaySet;
-use kdbeam::report::accuracy::{compare, reference_hits, Accuracy, Workload, CULLINGS};
 use kdbeam::scene::procedural;
 use kdbeam::trace::reference::ReferenceHit;
 use kdbeam::trace::Culling;
 use kdbeam::{BuildParams, Hit, Intersector, Isa, KdTree, Mesh, Ray, Tracer, Vec3};
+use kdbeam_cli::render::RaySet;
+use kdbeam_cli::report::accuracy::{compare, reference_hits, Accuracy, Workload, CULLINGS};
 
 fn as_reference(hits: &[Hit]) -> Vec<Option<ReferenceHit>> {
     hits.iter()

@@ -7,11 +7,12 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 
-use super::{Cli, Command};
-use kdbeam::report::{csv, LinePlot, Series};
+use crate::{Cli, Command};
 use kdbeam::scene::synthetic::{self, SyntheticParams};
 use kdbeam::trace::{Culling, Planes};
 use kdbeam::Isa;
+use kdbeam_cli::report::{csv, LinePlot, Series};
+use kdbeam_cli::{Error, Result};
 
 use super::{bench, sweep};
 
@@ -50,7 +51,7 @@ const CULLINGS: [(&str, Culling); 3] = [
     ("6-plane + aperture", Culling::FULL),
 ];
 
-pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: FiguresArgs) -> Result<()> {
     let io = |path: &Path| {
         let path = path.to_path_buf();
         move |source| kdbeam::Error::Io { path, source }
@@ -238,21 +239,14 @@ pub(crate) fn run(args: FiguresArgs) -> kdbeam::Result<()> {
 }
 
 /// The subcommand `argv` names, parsed as the command line would be.
-fn parse(argv: &[&str]) -> kdbeam::Result<Command> {
+fn parse(argv: &[&str]) -> Result<Command> {
     Cli::try_parse_from(std::iter::once("kdbeam").chain(argv.iter().copied()))
         .map(|cli| cli.command)
-        .map_err(|e| kdbeam::Error::InvalidParameter {
-            name: "figures",
-            message: e.to_string(),
-        })
+        .map_err(|e| Error::invalid("figures", e.to_string()))
 }
 
 /// Cycles per test of each culling at each point, on `isa`.
-fn synthetic_curve(
-    isa: Isa,
-    reps: usize,
-    points: &[(f64, SyntheticParams)],
-) -> kdbeam::Result<Curve> {
+fn synthetic_curve(isa: Isa, reps: usize, points: &[(f64, SyntheticParams)]) -> Result<Curve> {
     let mut hits = Vec::new();
     let mut curve = Vec::new();
     for (x, params) in points {
@@ -279,7 +273,7 @@ fn write_curve(
     x_label: &str,
     log_x: bool,
     curve: &Curve,
-) -> kdbeam::Result<()> {
+) -> Result<()> {
     let rows: Vec<Vec<String>> = curve
         .iter()
         .map(|(x, c)| {
@@ -316,5 +310,5 @@ fn write_curve(
             .collect(),
     };
     let path = dir.join(format!("{stem}.svg"));
-    std::fs::write(&path, plot.to_svg()).map_err(io(path.clone()))
+    Ok(std::fs::write(&path, plot.to_svg()).map_err(io(path.clone()))?)
 }

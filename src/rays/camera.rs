@@ -1,4 +1,4 @@
-//! The standard camera of DESIGN.md, so that every benchmark traces the same rays.
+//! The standard camera, so that every renderer, test and benchmark traces the same rays.
 
 use glam::Vec3;
 use kdbeam_kernels::{Aabb, Ray, RayPacket};

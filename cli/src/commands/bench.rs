@@ -2,9 +2,11 @@
 
 use std::time::Instant;
 
-use kdbeam::render::{self, Camera, RaySet};
 use kdbeam::trace::PacketCounters;
+use kdbeam::Camera;
 use kdbeam::{Hit, Isa, Tracer};
+use kdbeam_cli::render::{self, RaySet};
+use kdbeam_cli::{Error, Result};
 use rayon::prelude::*;
 
 use super::{build_tree, load_scene, packet_shape, thread_pool, TreeArgs};
@@ -64,20 +66,18 @@ pub(crate) struct Row {
     speedup_vs_scalar: f64,
 }
 
-pub(crate) fn run(args: BenchArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: BenchArgs) -> Result<()> {
     rows(&args).map(|_| ())
 }
 
 /// Measures every configuration of `args`, printing each row as it is measured.
-pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
+pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     let mut all = Vec::new();
     if args.embree && !cfg!(feature = "embree") {
-        return Err(kdbeam::Error::InvalidParameter {
-            name: "embree",
-            message:
-                "this kdbeam was built without Embree (cargo build --release --features embree)"
-                    .into(),
-        });
+        return Err(Error::invalid(
+            "embree",
+            "this kdbeam was built without Embree (cargo build --release --features embree)",
+        ));
     }
     let pool = thread_pool(Some(args.threads))?;
     let isas: Vec<Isa> = if args.isa.is_empty() {
@@ -164,14 +164,14 @@ pub(crate) fn rows(args: &BenchArgs) -> kdbeam::Result<Vec<Row>> {
         }
         #[cfg(feature = "embree")]
         if args.embree {
-            use kdbeam::embree::{EmbreeOptions, EmbreeScene};
+            use kdbeam_cli::embree::{EmbreeOptions, EmbreeScene};
             let robust = args.tree.intersector == kdbeam::Intersector::Watertight;
             let options = EmbreeOptions {
                 robust,
                 ..EmbreeOptions::default()
             };
             let scene = pool.install(|| EmbreeScene::with_options(&mesh, &options))?;
-            for width in kdbeam::embree::QUERY_WIDTHS {
+            for width in kdbeam_cli::embree::QUERY_WIDTHS {
                 let mrays = pool.install(|| measure_embree(args, &scene, width, &rays, &camera))?;
                 let row = Row {
                     scene: name.clone(),
@@ -248,9 +248,9 @@ fn measure(
     packet: usize,
     rays: &[kdbeam::Ray],
     camera: &Camera,
-) -> kdbeam::Result<(f64, f64)> {
+) -> Result<(f64, f64)> {
     let mut hits = vec![Hit::NONE; rays.len()];
-    let mut run = || -> kdbeam::Result<(f64, u64)> {
+    let mut run = || -> Result<(f64, u64)> {
         if packet == 1 {
             let start = Instant::now();
             let tests: u64 = rays
@@ -288,10 +288,7 @@ fn measure(
 }
 
 /// The median of `reps` (at least 1) calls of `run`, which returns seconds.
-pub(crate) fn median_seconds(
-    reps: usize,
-    mut run: impl FnMut() -> kdbeam::Result<f64>,
-) -> kdbeam::Result<f64> {
+pub(crate) fn median_seconds(reps: usize, mut run: impl FnMut() -> Result<f64>) -> Result<f64> {
     let mut times = Vec::with_capacity(reps.max(1));
     for _ in 0..reps.max(1) {
         times.push(run()?);
@@ -307,15 +304,15 @@ pub(crate) fn median_seconds(
 #[cfg(feature = "embree")]
 pub(crate) fn measure_embree(
     args: &BenchArgs,
-    scene: &kdbeam::embree::EmbreeScene,
+    scene: &kdbeam_cli::embree::EmbreeScene,
     width: usize,
     rays: &[kdbeam::Ray],
     camera: &Camera,
-) -> kdbeam::Result<f64> {
+) -> Result<f64> {
     let tiled;
     let rays = match args.rays {
         RaySet::Primary => {
-            tiled = kdbeam::embree::primary_rays(camera, width)?.0;
+            tiled = kdbeam_cli::embree::primary_rays(camera, width)?.0;
             &tiled[..]
         }
         RaySet::Random => rays,
@@ -327,11 +324,11 @@ pub(crate) fn measure_embree(
 /// Median seconds of Embree tracing `rays` with rtcIntersect`width`, after one warm-up.
 #[cfg(feature = "embree")]
 pub(crate) fn embree_frame_seconds(
-    scene: &kdbeam::embree::EmbreeScene,
+    scene: &kdbeam_cli::embree::EmbreeScene,
     width: usize,
     rays: &[kdbeam::Ray],
     reps: usize,
-) -> kdbeam::Result<f64> {
+) -> Result<f64> {
     let mut hits = vec![Hit::NONE; rays.len()];
     let mut run = || {
         let start = Instant::now();

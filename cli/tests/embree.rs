@@ -1,12 +1,13 @@
 //! Embree against kdbeam's watertight scalar path, on the same rays (`--features embree`).
 #![cfg(feature = "embree")]
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 
-use kdbeam::embree::{primary_rays, EmbreeScene, QUERY_WIDTHS};
 use kdbeam::kernels::intersect::watertight::WatertightRay;
-use kdbeam::render::{random_rays, Camera};
+use kdbeam::rays::{random_rays, Camera};
 use kdbeam::{BuildParams, Hit, Intersector, KdTree, Mesh, Ray, Tracer, Triangle, Vec3};
+use kdbeam_cli::embree::{primary_rays, EmbreeScene, QUERY_WIDTHS};
 
 /// Relative tolerance on `t` when both report the same triangle. Both compute `t` in `f32`
 /// from the same vertices (Embree's robust mode by a Plücker-style test, kdbeam by the sheared
@@ -127,13 +128,7 @@ fn grown(tri: Triangle, origin: Vec3) -> Triangle {
 /// The built-in scenes and the bunny (when the shared scenes are present).
 fn scenes() -> Vec<(String, Mesh)> {
     let mut scenes = common::scenes(false);
-    match kdbeam::scene::shared_scene("bunny") {
-        Some(path) => scenes.push((
-            "bunny".into(),
-            kdbeam::scene::load_obj(path).expect("the bunny loads"),
-        )),
-        None => eprintln!("skipped: the bunny (set KDBEAM_SCENES to ../shared/scenes)"),
-    }
+    scenes.extend(common::scenes::load_shared("bunny").map(|mesh| ("bunny".to_string(), mesh)));
     scenes
 }
 

@@ -1,9 +1,6 @@
 //! Simple shading: two-sided Lambert under a key light and a sky fill, tinted by the normal.
 
-use glam::Vec3;
-use kdbeam_kernels::{Hit, Ray};
-
-use crate::Mesh;
+use kdbeam::{Hit, Mesh, Ray, Vec3};
 
 /// The colour seen along `ray` that hit `hit` (a miss shows a sky gradient).
 ///

@@ -6,7 +6,9 @@ use std::time::Instant;
 
 use embree::sys;
 
-use crate::{Error, Mesh, Result};
+use kdbeam::Mesh;
+
+use crate::{Error, Result};
 
 /// Embree's BVH build quality (`RTC_BUILD_QUALITY_*`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -99,8 +101,8 @@ impl EmbreeScene {
 
     /// Uploads `mesh` to a new Embree device and builds its BVH.
     ///
-    /// The device's build threads are the current rayon pool's thread count (1 without the
-    /// `parallel` feature), so that Embree builds on as many cores as kdbeam's kd-tree build.
+    /// The device's build threads are the current rayon pool's thread count, so that Embree
+    /// builds on as many cores as kdbeam's kd-tree build.
     /// [`EmbreeScene::build_seconds`] times everything from the new scene to the committed BVH,
     /// vertex and index upload included; creating the device is not timed. An empty mesh gives
     /// a scene without geometry, which every ray misses.
@@ -255,8 +257,5 @@ impl Drop for EmbreeScene {
 
 /// Threads Embree may build with: those of the current rayon pool.
 fn build_threads() -> usize {
-    #[cfg(feature = "parallel")]
-    return rayon::current_num_threads();
-    #[cfg(not(feature = "parallel"))]
-    return 1;
+    rayon::current_num_threads()
 }

@@ -1,9 +1,6 @@
 //! Primary rays in the order of kdbeam's pixel tiles, so that Embree's packets are kdbeam's.
 
-use kdbeam_kernels::{PacketShape, Ray};
-
-use crate::render::Camera;
-use crate::{Error, Result};
+use kdbeam::{Camera, Error, PacketShape, Ray, Result};
 
 /// Pixel indices `y · width + x` of a `width × height` image in the order
 /// [`trace_primary`](crate::render::trace_primary) traces them with `shape`: bands of
@@ -71,7 +68,7 @@ mod tests {
 
     #[test]
     fn primary_rays_rejects_other_widths() {
-        let camera = Camera::standard(&kdbeam_kernels::Aabb::EMPTY, 4, 4);
+        let camera = Camera::standard(&kdbeam::Aabb::EMPTY, 4, 4);
         assert!(primary_rays(&camera, 2).is_err());
         let (rays, pixels) = primary_rays(&camera, 4).expect("width 4 is valid");
         assert_eq!(rays.len(), 16);

@@ -1,23 +1,18 @@
-//! Rendering: the standard camera, packets from pixel tiles, shading, heat maps and PNGs.
+//! Frames of primary rays traced in pixel tiles, shading, heat maps and PNGs.
 
-mod camera;
 mod image;
-mod rays;
+mod ray_set;
 mod shade;
 
 use std::time::Instant;
 
-use kdbeam_kernels::{Hit, HitPacket, RayPacket};
-#[cfg(feature = "parallel")]
+use kdbeam::trace::{PacketCounters, Tracer};
+use kdbeam::{Camera, Hit, HitPacket, Mesh, RayPacket};
 use rayon::prelude::*;
 
-pub use camera::Camera;
 pub use image::{heat_color, Image};
-pub use rays::{random_rays, ray_set, RaySet};
+pub use ray_set::{ray_set, RaySet};
 pub use shade::shade;
-
-use crate::trace::{PacketCounters, Tracer};
-use crate::Mesh;
 
 /// The primary hits of one frame and what they cost.
 #[derive(Clone, Debug)]
@@ -98,10 +93,7 @@ pub fn trace_primary(
         counters
     };
     let start = Instant::now();
-    #[cfg(feature = "parallel")]
     let per_band: Vec<PacketCounters> = hits.par_chunks_mut(w * th).enumerate().map(band).collect();
-    #[cfg(not(feature = "parallel"))]
-    let per_band: Vec<PacketCounters> = hits.chunks_mut(w * th).enumerate().map(band).collect();
     let seconds = start.elapsed().as_secs_f64();
     let mut counters = PacketCounters::default();
     per_band.iter().for_each(|c| counters.add(c));

@@ -3,7 +3,7 @@
 use std::io::BufWriter;
 use std::path::Path;
 
-use crate::{Error, Result};
+use kdbeam::{Error, Result};
 
 /// An 8-bit RGB image, rows top to bottom.
 #[derive(Clone, Debug, PartialEq, Eq)]

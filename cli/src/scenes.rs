@@ -1,5 +1,5 @@
-//! The shared test meshes (`/work/shared/scenes`, see its `SOURCES.md`): where they are and what
-//! they hold, for tests, benches and the command-line tool.
+//! The shared test meshes (their folder's `SOURCES.md` says where each comes from): where they
+//! are and what they hold, so that the commands accept `bunny` for the bunny's file.
 
 use std::path::PathBuf;
 
@@ -40,13 +40,13 @@ pub const SHARED_SCENES: &[SharedScene] = &[
 
 /// The directory of the shared meshes, if it exists.
 ///
-/// `$KDBEAM_SCENES` when that variable is set (and then only it), otherwise `../shared/scenes`
-/// next to the `kdbeam` crate's root (its path at compile time). `None` when the chosen path is
-/// not a directory.
+/// `$KDBEAM_SCENES` when that variable is set (and then only it), otherwise `shared/scenes`
+/// beside the repository's checkout (found from this crate's path at compile time). `None` when
+/// the chosen path is not a directory.
 pub fn shared_scenes_dir() -> Option<PathBuf> {
     let dir = match std::env::var_os("KDBEAM_SCENES") {
         Some(dir) => PathBuf::from(dir),
-        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"),
+        None => PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/scenes"),
     };
     dir.is_dir().then_some(dir)
 }

@@ -1,22 +1,19 @@
 //! Accuracy against the f64 oracle, and run time next to it (DESIGN.md, "Accuracy").
 //!
 //! [`reference_hits`] computes the exact closest hits of a ray set once (the kd-tree with the
-//! f64 watertight oracle in its leaves, [`crate::trace::reference::kd_oracle`]); [`compare`]
+//! f64 watertight oracle in its leaves, [`kdbeam::trace::reference::kd_oracle`]); [`compare`]
 //! scores any tracer's hits against them; [`Workload::measure`] times a tracer on the rays and
 //! scores its hits in one call.
 
 use std::time::Instant;
 
-use kdbeam_kernels::intersect::oracle::OracleRay;
-use kdbeam_kernels::{Hit, Ray};
-#[cfg(feature = "parallel")]
+use kdbeam::kernels::intersect::oracle::OracleRay;
+use kdbeam::trace::reference::{kd_oracle, ReferenceHit};
+use kdbeam::trace::{Culling, Frustum, Planes, Tracer};
+use kdbeam::{Camera, Error, Hit, KdTree, Mesh, Ray, Result};
 use rayon::prelude::*;
 
-use crate::kdtree::KdTree;
-use crate::render::{self, Camera, RaySet};
-use crate::trace::reference::{kd_oracle, ReferenceHit};
-use crate::trace::{Culling, Frustum, Planes, Tracer};
-use crate::{Error, Mesh, Result};
+use crate::render::{self, RaySet};
 
 /// Relative part of the edge-tie tolerance on `t`: f32 carries 24 bits (6e-8 relative) and a
 /// ray–triangle test's few products lose up to ~3 orders of magnitude on grazing rays (the
@@ -68,14 +65,10 @@ impl Accuracy {
     }
 }
 
-/// The f64 oracle's closest hit of every ray (parallel with the `parallel` feature): `None`
+/// The f64 oracle's closest hit of every ray (on the current rayon pool): `None`
 /// for a miss or a ray that cannot be traced.
 pub fn reference_hits(tree: &KdTree, rays: &[Ray]) -> Vec<Option<ReferenceHit>> {
-    #[cfg(feature = "parallel")]
-    let it = rays.par_iter();
-    #[cfg(not(feature = "parallel"))]
-    let it = rays.iter();
-    it.map(|r| kd_oracle(tree, r)).collect()
+    rays.par_iter().map(|r| kd_oracle(tree, r)).collect()
 }
 
 /// Scores `hits[i]` (a tracer's closest hit of `rays[i]`) against `reference[i]` (the oracle's,
@@ -90,7 +83,7 @@ pub fn reference_hits(tree: &KdTree, rays: &[Ray]) -> Vec<Option<ReferenceHit>> 
 /// hit/miss is decided by rounding alone.
 ///
 /// ```
-/// use kdbeam::report::accuracy::{compare, reference_hits};
+/// use kdbeam_cli::report::accuracy::{compare, reference_hits};
 /// use kdbeam::{BuildParams, KdTree, Mesh, Ray, Tracer, Vec3};
 /// let mesh = Mesh::from_indexed(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]], &[0, 1, 2])?;
 /// let tree = KdTree::build(&mesh, &BuildParams::default())?;

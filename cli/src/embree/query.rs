@@ -2,14 +2,12 @@
 //! Embree's hits back into kdbeam [`Hit`]s.
 
 use embree::sys;
-use kdbeam_kernels::lanes::with_flush_to_zero;
-use kdbeam_kernels::{Hit, Ray};
-#[cfg(feature = "parallel")]
+use kdbeam::kernels::lanes::with_flush_to_zero;
+use kdbeam::trace::is_traceable;
+use kdbeam::{Error, Hit, Ray, Result};
 use rayon::prelude::*;
 
 use super::EmbreeScene;
-use crate::trace::is_traceable;
-use crate::{Error, Result};
 
 /// The packet widths [`EmbreeScene::intersect_stream`] accepts: rtcIntersect1, 4, 8 and 16.
 pub const QUERY_WIDTHS: [usize; 4] = [1, 4, 8, 16];
@@ -23,9 +21,8 @@ const INVALID_ID: u32 = u32::MAX;
 impl EmbreeScene {
     /// Closest hits of `rays`, written to `hits[i]` for `rays[i]`, traced with
     /// rtcIntersect`width` on packets of `width` consecutive rays (the last one partly filled).
-    /// Parallel over chunks of 1024 rays on the current rayon pool (with the `parallel`
-    /// feature); every chunk runs with flush-to-zero and denormals-are-zero set, as Embree
-    /// expects.
+    /// Parallel over chunks of 1024 rays on the current rayon pool; every chunk runs with
+    /// flush-to-zero and denormals-are-zero set, as Embree expects.
     ///
     /// A hit gives Embree's `t`, barycentrics `(u, v)` (weights of the second and third vertex,
     /// as in kdbeam) and primitive id as the triangle. Rays kdbeam cannot trace (non-finite or
@@ -58,13 +55,8 @@ impl EmbreeScene {
                 _ => self.trace_packets::<sys::RTCRayHit16>(rays, hits),
             })
         };
-        #[cfg(feature = "parallel")]
         rays.par_chunks(CHUNK)
             .zip(hits.par_chunks_mut(CHUNK))
-            .for_each(chunk);
-        #[cfg(not(feature = "parallel"))]
-        rays.chunks(CHUNK)
-            .zip(hits.chunks_mut(CHUNK))
             .for_each(chunk);
         Ok(())
     }

@@ -2,8 +2,8 @@
 //!
 //! DESIGN.md asks for every performance claim to be a ratio against baselines measured in the
 //! same run; Embree's BVH and its rtcIntersect1/4/8/16 kernels are the outside one. This module
-//! uploads a [`Mesh`](crate::Mesh) to Embree ([`EmbreeScene`]) and traces slices of kdbeam
-//! [`Ray`](crate::Ray)s into kdbeam [`Hit`](crate::Hit)s
+//! uploads a [`Mesh`](kdbeam::Mesh) to Embree ([`EmbreeScene`]) and traces slices of kdbeam
+//! [`Ray`](kdbeam::Ray)s into kdbeam [`Hit`](kdbeam::Hit)s
 //! ([`EmbreeScene::intersect_stream`]), in packets of 1, 4, 8 or 16 rays.
 //!
 //! Packets are consecutive rays of the slice. For primary rays, [`primary_rays`] orders the

@@ -1,9 +1,7 @@
 //! The ray sets every benchmark and accuracy figure is measured on.
 
-use kdbeam_kernels::{Aabb, Ray};
-
-use super::Camera;
-use crate::scene::rng::Rng;
+use kdbeam::rays::{random_rays, Camera};
+use kdbeam::{Aabb, Ray};
 
 /// Which rays a measurement traces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
@@ -23,24 +21,6 @@ impl RaySet {
             RaySet::Random => "random",
         }
     }
-}
-
-/// `count` random rays: origins uniform in `bounds`, directions uniform on the unit sphere,
-/// `t` over `[0, +inf)`; the same rays for the same `seed` on every platform. An empty box puts
-/// every origin at the origin.
-pub fn random_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<Ray> {
-    let mut rng = Rng::new(seed);
-    let (lo, ext) = if bounds.is_empty() {
-        (glam::Vec3::ZERO, glam::Vec3::ZERO)
-    } else {
-        (bounds.min, bounds.extent())
-    };
-    (0..count)
-        .map(|_| {
-            let o = lo + ext * glam::Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-            Ray::new(o, rng.unit_vector())
-        })
-        .collect()
 }
 
 /// The rays of `set` for a scene bounded by `bounds`: the standard camera at `width × height`

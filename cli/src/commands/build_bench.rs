@@ -6,8 +6,10 @@
 
 use std::time::Instant;
 
-use kdbeam::render::{self, Camera};
+use kdbeam::Camera;
 use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Tracer};
+use kdbeam_cli::render;
+use kdbeam_cli::{Error, Result};
 
 use super::bench::{median_seconds, print_json_or, scene_names};
 use super::{load_scene, packet_shape, thread_pool};
@@ -65,12 +67,12 @@ struct Row {
     build_plus_frame_ms: f64,
 }
 
-pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
     if ![1, 4, 8, 16].contains(&args.embree_width) {
-        return Err(kdbeam::Error::InvalidParameter {
-            name: "embree-width",
-            message: format!("must be 1, 4, 8 or 16, got {}", args.embree_width),
-        });
+        return Err(Error::invalid(
+            "embree-width",
+            format!("must be 1, 4, 8 or 16, got {}", args.embree_width),
+        ));
     }
     let pool = thread_pool(Some(args.threads))?;
     let shape = packet_shape(args.packet)?;
@@ -121,7 +123,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
             };
             params.validate()?;
             let (build, rebuild, sah_cost, frame) =
-                pool.install(|| -> kdbeam::Result<(f64, f64, f64, f64)> {
+                pool.install(|| -> Result<(f64, f64, f64, f64)> {
                     let build = median_seconds(args.reps, || {
                         let start = Instant::now();
                         let tree = KdTree::build(&mesh, &params)?;
@@ -159,14 +161,14 @@ pub(crate) fn run(args: BuildBenchArgs) -> kdbeam::Result<()> {
         }
         #[cfg(feature = "embree")]
         {
-            use kdbeam::embree::{primary_rays, BuildQuality, EmbreeOptions, EmbreeScene};
+            use kdbeam_cli::embree::{primary_rays, BuildQuality, EmbreeOptions, EmbreeScene};
             let rays = primary_rays(&camera, args.embree_width)?.0;
             for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
                 let options = EmbreeOptions {
                     quality,
                     ..EmbreeOptions::default()
                 };
-                let (build, frame) = pool.install(|| -> kdbeam::Result<(f64, f64)> {
+                let (build, frame) = pool.install(|| -> Result<(f64, f64)> {
                     let build = median_seconds(args.reps, || {
                         Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
                     })?;

@@ -4,6 +4,7 @@
 use kdbeam::scene::synthetic::{self, SyntheticParams};
 use kdbeam::trace::Culling;
 use kdbeam::Isa;
+use kdbeam_cli::{Error, Result};
 
 use super::bench::print_json_or;
 
@@ -61,7 +62,7 @@ struct Row {
     eliminated_pct: f64,
 }
 
-pub(crate) fn run(args: SyntheticArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: SyntheticArgs) -> Result<()> {
     let isas: Vec<Isa> = if args.isa.is_empty() {
         Isa::available().collect()
     } else {
@@ -109,12 +110,9 @@ pub(crate) fn run(args: SyntheticArgs) -> kdbeam::Result<()> {
                 let hit_rate = synthetic::hit_rate(&cell);
                 for &isa in &isas {
                     let measure = |c: Culling, hits: &mut Vec<_>| {
-                        synthetic::measure(&cell, isa, c, args.reps, hits).ok_or(
-                            kdbeam::Error::InvalidParameter {
-                                name: "isa",
-                                message: format!("this CPU does not run {isa}"),
-                            },
-                        )
+                        synthetic::measure(&cell, isa, c, args.reps, hits).ok_or_else(|| {
+                            Error::invalid("isa", format!("this CPU does not run {isa}"))
+                        })
                     };
                     let baseline = measure(Culling::NONE, &mut hits)?;
                     for c in std::iter::once(Culling::NONE).chain(args.culling.iter().copied()) {

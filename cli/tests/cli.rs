@@ -3,6 +3,7 @@
 
 use std::process::{Command, Output};
 
+#[path = "../../tests/common/mod.rs"]
 mod common;
 use common::TempFile;
 

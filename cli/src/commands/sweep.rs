@@ -2,10 +2,12 @@
 
 use std::path::PathBuf;
 
-use kdbeam::render::{self, Camera};
-use kdbeam::report::{csv, LinePlot, Series};
 use kdbeam::trace::{Culling, Frustum, Planes};
+use kdbeam::Camera;
 use kdbeam::{BuildParams, Isa, KdTree, Tracer};
+use kdbeam_cli::render;
+use kdbeam_cli::report::{csv, LinePlot, Series};
+use kdbeam_cli::Result;
 
 use super::{load_scene, packet_shape, thread_pool, with_spinner};
 
@@ -57,12 +59,12 @@ pub(crate) struct Point {
     mean_leaf_size: f64,
 }
 
-pub(crate) fn run(args: SweepArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: SweepArgs) -> Result<()> {
     points(&args).map(|_| ())
 }
 
 /// Measures every point of the sweep (printing each), and writes the files `args.out` asks for.
-pub(crate) fn points(args: &SweepArgs) -> kdbeam::Result<Vec<Point>> {
+pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
     let pool = thread_pool(Some(args.threads))?;
     let (name, mesh) = load_scene(args.scene.as_deref())?;
     let cullings = [
@@ -183,7 +185,7 @@ pub(crate) fn write_files(
     stem: &str,
     scene: &str,
     points: &[Point],
-) -> kdbeam::Result<()> {
+) -> Result<()> {
     let io = |path: PathBuf| move |source| kdbeam::Error::Io { path, source };
     std::fs::create_dir_all(dir).map_err(io(dir.to_path_buf()))?;
     let rows: Vec<Vec<String>> = points

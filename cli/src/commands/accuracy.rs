@@ -2,10 +2,11 @@
 
 use std::path::{Path, PathBuf};
 
-use kdbeam::render::RaySet;
-use kdbeam::report::accuracy::{reference_hits, Measurement, Workload, CULLINGS};
-use kdbeam::report::{csv, LinePlot, Series};
 use kdbeam::{BuildParams, Intersector, Isa, KdTree, PacketShape, Tracer};
+use kdbeam_cli::render::RaySet;
+use kdbeam_cli::report::accuracy::{reference_hits, Measurement, Workload, CULLINGS};
+use kdbeam_cli::report::{csv, LinePlot, Series};
+use kdbeam_cli::Result;
 
 use super::bench::print_json_or;
 use super::{load_scene, thread_pool, with_spinner};
@@ -110,14 +111,14 @@ const HEADER: [&str; 12] = [
 fn default_scenes() -> Vec<Option<String>> {
     let mut out = vec![None];
     for name in ["bunny", "sponza", "dragon"] {
-        if kdbeam::scene::shared_scene(name).is_some_and(|p| p.is_file()) {
+        if kdbeam_cli::scenes::shared_scene(name).is_some_and(|p| p.is_file()) {
             out.push(Some(name.to_string()));
         }
     }
     out
 }
 
-pub(crate) fn run(args: AccuracyArgs) -> kdbeam::Result<()> {
+pub(crate) fn run(args: AccuracyArgs) -> Result<()> {
     let pool = thread_pool(Some(1))?;
     let isas: Vec<Isa> = if args.isa.is_empty() {
         Isa::available().collect()
@@ -203,7 +204,7 @@ fn table_line(r: &Row) -> String {
 /// (accuracy.svg) and the p99 relative `t` error in units of 1e-7, as the plot prints 3
 /// decimals (accuracy_t.svg), one series per scene, ray
 /// set and intersector, its points sorted by run time.
-fn write_files(dir: &Path, rows: &[Row]) -> kdbeam::Result<()> {
+fn write_files(dir: &Path, rows: &[Row]) -> Result<()> {
     let io = |path: PathBuf| move |source| kdbeam::Error::Io { path, source };
     std::fs::create_dir_all(dir).map_err(io(dir.to_path_buf()))?;
     let csv_path = dir.join("accuracy.csv");
