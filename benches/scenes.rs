@@ -30,7 +30,7 @@ fn primary(c: &mut Criterion) {
                     .with_isa(isa)
                     .expect("available")
                     .with_packet(shape);
-                let packets = tiles(&camera, shape);
+                let packets = camera.tile_packets(shape);
                 g.bench_with_input(
                     BenchmarkId::new(isa.name(), shape.ray_count()),
                     &t,
@@ -40,22 +40,6 @@ fn primary(c: &mut Criterion) {
         }
         g.finish();
     }
-}
-
-/// The camera's rays as packets of `shape`'s pixel tiles, made before timing so that only the
-/// tracing is measured.
-fn tiles(camera: &Camera, shape: PacketShape) -> Vec<RayPacket> {
-    let (tw, th) = (shape.width() as u32, shape.height() as u32);
-    let mut out = Vec::new();
-    for y0 in (0..camera.height).step_by(th as usize) {
-        for x0 in (0..camera.width).step_by(tw as usize) {
-            let mut p = RayPacket::from_rays(&[]);
-            let (cols, rows) = (tw.min(camera.width - x0), th.min(camera.height - y0));
-            camera.fill_packet(x0, y0, cols, rows, &mut p);
-            out.push(p);
-        }
-    }
-    out
 }
 
 /// Traces every packet; returns the number of hits, so that nothing is optimised away.

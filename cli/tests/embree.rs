@@ -7,7 +7,7 @@ mod common;
 use kdbeam::kernels::intersect::watertight::WatertightRay;
 use kdbeam::rays::{random_rays, Camera};
 use kdbeam::{BuildParams, Hit, Intersector, KdTree, Mesh, Ray, Tracer, Triangle, Vec3};
-use kdbeam_cli::embree::{primary_rays, EmbreeScene, QUERY_WIDTHS};
+use kdbeam_cli::embree::{primary_rays, Context, EmbreeRays, EmbreeScene, QUERY_WIDTHS};
 
 /// Relative tolerance on `t` when both report the same triangle. Both compute `t` in `f32`
 /// from the same vertices (Embree's robust mode by a Plücker-style test, kdbeam by the sheared
@@ -136,10 +136,10 @@ fn watertight(tree: &KdTree) -> Tracer<'_> {
     Tracer::new(tree).with_intersector(Intersector::Watertight)
 }
 
-fn embree_hits(scene: &EmbreeScene, rays: &[Ray], width: usize) -> Vec<Hit> {
+fn embree_hits(scene: &EmbreeScene, rays: &[Ray], width: usize, context: Context) -> Vec<Hit> {
     let mut hits = vec![Hit::NONE; rays.len()];
     scene
-        .intersect_stream(rays, width, &mut hits)
+        .intersect_stream(rays, width, context, &mut hits)
         .expect("a valid width and matching lengths");
     hits
 }
@@ -154,12 +154,17 @@ fn primary_rays_agree_with_the_watertight_scalar_path() {
         let reference: Vec<Hit> = camera.rays().iter().map(|r| tracer.intersect(r)).collect();
         for width in QUERY_WIDTHS {
             let (rays, pixels) = primary_rays(&camera, width).expect("a valid width");
-            let hits = embree_hits(&scene, &rays, width);
-            let mut agreement = Agreement::new(&mesh);
-            for ((hit, ray), &pixel) in hits.iter().zip(&rays).zip(&pixels) {
-                agreement.add(&mesh, ray, hit, &reference[pixel as usize]);
+            for context in Context::ALL {
+                let hits = embree_hits(&scene, &rays, width, context);
+                let mut agreement = Agreement::new(&mesh);
+                for ((hit, ray), &pixel) in hits.iter().zip(&rays).zip(&pixels) {
+                    agreement.add(&mesh, ray, hit, &reference[pixel as usize]);
+                }
+                let context = context.name();
+                agreement.check(&format!(
+                    "{name} primary 512x512 rtcIntersect{width} {context}"
+                ));
             }
-            agreement.check(&format!("{name} primary 512x512 rtcIntersect{width}"));
         }
     }
 }
@@ -179,12 +184,15 @@ fn random_rays_agree_with_the_watertight_scalar_path() {
         let rays = random_rays(&tree.bounds(), 4099, 7);
         let reference: Vec<Hit> = rays.iter().map(|r| tracer.intersect(r)).collect();
         for width in QUERY_WIDTHS {
-            let hits = embree_hits(&scene, &rays, width);
-            let mut agreement = Agreement::new(&mesh);
-            for ((hit, ray), kdbeam) in hits.iter().zip(&rays).zip(&reference) {
-                agreement.add(&mesh, ray, hit, kdbeam);
+            for context in Context::ALL {
+                let hits = embree_hits(&scene, &rays, width, context);
+                let mut agreement = Agreement::new(&mesh);
+                for ((hit, ray), kdbeam) in hits.iter().zip(&rays).zip(&reference) {
+                    agreement.add(&mesh, ray, hit, kdbeam);
+                }
+                let context = context.name();
+                agreement.check(&format!("{name} random rtcIntersect{width} {context}"));
             }
-            agreement.check(&format!("{name} random rtcIntersect{width}"));
         }
     }
 }
@@ -223,7 +231,7 @@ fn untraceable_rays_are_inactive_lanes_and_disturb_no_other_lane() {
             })
             .collect();
         for width in QUERY_WIDTHS {
-            let hits = embree_hits(&scene, &rays, width);
+            let hits = embree_hits(&scene, &rays, width, Context::Coherent);
             for (i, hit) in hits.iter().enumerate() {
                 if i == good_lane {
                     assert_eq!(hit.triangle, 0, "width {width}: the good ray hits");
@@ -242,12 +250,44 @@ fn bad_widths_and_lengths_are_errors() {
     let scene = EmbreeScene::new(&mesh).expect("embree builds");
     let rays = [Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z); 3];
     let mut hits = [Hit::NONE; 3];
+    let context = Context::Incoherent;
     for width in [0, 2, 3, 32, 64] {
-        assert!(scene.intersect_stream(&rays, width, &mut hits).is_err());
+        assert!(scene
+            .intersect_stream(&rays, width, context, &mut hits)
+            .is_err());
+        assert!(EmbreeRays::new(&rays, width).is_err());
     }
-    assert!(scene.intersect_stream(&rays, 4, &mut hits[..2]).is_err());
+    assert!(scene
+        .intersect_stream(&rays, 4, context, &mut hits[..2])
+        .is_err());
+    let layout = EmbreeRays::new(&rays, 4).expect("a valid width");
+    assert!(layout.hits(&mut hits[..2]).is_err());
     scene
-        .intersect_stream(&rays, 4, &mut hits)
+        .intersect_stream(&rays, 4, context, &mut hits)
         .expect("valid input");
     assert!(hits.iter().all(Hit::is_hit));
+}
+
+/// The benchmark's way of tracing, a fresh copy of rays converted once, gives the hits of a
+/// single call; before tracing, every ray reads as a miss.
+#[test]
+fn copies_of_converted_rays_trace_as_one_call_does() {
+    let mesh = kdbeam::scene::procedural::builtin("icosphere").expect("built-in scene");
+    let scene = EmbreeScene::new(&mesh).expect("embree builds");
+    let rays = random_rays(&mesh.bounds(), 1000, 3);
+    for width in QUERY_WIDTHS {
+        let want = embree_hits(&scene, &rays, width, Context::Incoherent);
+        assert!(want.iter().any(Hit::is_hit), "width {width}: some ray hits");
+        let untraced = EmbreeRays::new(&rays, width).expect("a valid width");
+        let mut hits = vec![Hit::NONE; rays.len()];
+        untraced.hits(&mut hits).expect("matching lengths");
+        assert!(hits.iter().all(|h| !h.is_hit()), "width {width}: untraced");
+        let mut work = untraced.clone();
+        for _ in 0..2 {
+            work.clone_from(&untraced);
+            scene.trace(&mut work, Context::Incoherent);
+            work.hits(&mut hits).expect("matching lengths");
+            assert_eq!(hits, want, "width {width}");
+        }
+    }
 }

@@ -1,7 +1,7 @@
 //! The standard camera, so that every renderer, test and benchmark traces the same rays.
 
 use glam::Vec3;
-use kdbeam_kernels::{Aabb, Ray, RayPacket};
+use kdbeam_kernels::{Aabb, PacketShape, Ray, RayPacket};
 
 /// A pinhole camera looking along +z at a scene's box.
 ///
@@ -69,6 +69,34 @@ impl Camera {
             packet.tmin[row.clone()].fill(0.0);
             packet.tmax[row].fill(f32::INFINITY);
         }
+    }
+
+    /// Every primary ray as packets of `shape`'s pixel tiles: bands of `shape.height()` rows
+    /// from row 0, tiles left to right within a band, each packet row by row (as
+    /// [`Camera::fill_packet`] fills it). Tiles at the right and bottom edges are cut to the
+    /// image, so every pixel is in exactly one packet.
+    ///
+    /// ```
+    /// use kdbeam::{Aabb, Camera, PacketShape, Vec3};
+    ///
+    /// let camera = Camera::standard(&Aabb::from_points([Vec3::ZERO, Vec3::ONE]), 10, 6);
+    /// let packets = camera.tile_packets(PacketShape::P4x4);
+    /// assert_eq!(packets.len(), 3 * 2);
+    /// assert_eq!(packets.iter().map(|p| p.len()).sum::<usize>(), 60);
+    /// assert_eq!(packets[2].len(), 2 * 4); // the cut tile at the right edge
+    /// ```
+    pub fn tile_packets(&self, shape: PacketShape) -> Vec<RayPacket> {
+        let (tw, th) = (shape.width() as u32, shape.height() as u32);
+        let mut packets = Vec::new();
+        for y0 in (0..self.height).step_by(th as usize) {
+            for x0 in (0..self.width).step_by(tw as usize) {
+                let (cols, rows) = (tw.min(self.width - x0), th.min(self.height - y0));
+                let mut packet = RayPacket::from_rays(&[]);
+                self.fill_packet(x0, y0, cols, rows, &mut packet);
+                packets.push(packet);
+            }
+        }
+        packets
     }
 
     /// Every primary ray, row by row.

@@ -6,12 +6,11 @@
 
 use std::time::Instant;
 
-use kdbeam::Camera;
 use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Tracer};
-use kdbeam_cli::render;
+use kdbeam_cli::render::RaySet;
 use kdbeam_cli::{Error, Result};
 
-use super::bench::{median_seconds, print_json_or, scene_names};
+use super::bench::{measure, median_seconds, print_json_or, scene_names, RaysOf};
 use super::{load_scene, packet_shape, thread_pool};
 
 #[derive(clap::Args)]
@@ -95,7 +94,8 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
     }
     for scene in scenes {
         let (name, mesh) = load_scene(scene)?;
-        let camera = Camera::standard(&mesh.bounds(), args.size.0, args.size.1);
+        let rays = RaysOf::of(RaySet::Primary, &mesh.bounds(), args.size);
+        let packets = rays.kdbeam_layout(shape.ray_count())?;
         let row =
             |structure, setting, build: f64, rebuild: Option<f64>, sah_cost, frame: f64| Row {
                 scene: name.clone(),
@@ -141,10 +141,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                         Ok(start.elapsed().as_secs_f64())
                     })?;
                     let tracer = Tracer::new(&tree).with_packet(shape);
-                    render::trace_primary(&tracer, &camera, &|_| {});
-                    let frame = median_seconds(args.reps, || {
-                        Ok(render::trace_primary(&tracer, &camera, &|_| {}).seconds)
-                    })?;
+                    let (frame, _) = measure(args.reps, &tracer, &packets);
                     Ok((build, rebuild, tree.sah_cost(ci_over_ct), frame))
                 })?;
             print_row(
@@ -161,8 +158,8 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
         }
         #[cfg(feature = "embree")]
         {
-            use kdbeam_cli::embree::{primary_rays, BuildQuality, EmbreeOptions, EmbreeScene};
-            let rays = primary_rays(&camera, args.embree_width)?.0;
+            use kdbeam_cli::embree::{BuildQuality, Context, EmbreeOptions, EmbreeScene};
+            let embree_rays = rays.embree_layout(args.embree_width)?;
             for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
                 let options = EmbreeOptions {
                     quality,
@@ -173,12 +170,13 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                         Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
                     })?;
                     let scene = EmbreeScene::with_options(&mesh, &options)?;
-                    let frame = super::bench::embree_frame_seconds(
-                        &scene,
-                        args.embree_width,
-                        &rays,
+                    // Camera packets: the coherent context, as in `kdbeam bench`.
+                    let frame = super::bench::embree_seconds(
                         args.reps,
-                    )?;
+                        &scene,
+                        &embree_rays,
+                        Context::Coherent,
+                    );
                     Ok((build, frame))
                 })?;
                 print_row(

@@ -204,7 +204,14 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
         _ => unreachable!("parsed as bench"),
     };
     let rows = bench::rows(&bench_args)?;
-    let header = ["scene", "isa", "packet", "culling", "mrays_per_s"];
+    let header = [
+        "scene",
+        "isa",
+        "packet",
+        "culling",
+        "context",
+        "mrays_per_s",
+    ];
     let table: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
@@ -213,6 +220,7 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
                 r.isa.clone(),
                 r.packet.to_string(),
                 r.culling.clone(),
+                r.context.unwrap_or("-").to_string(),
                 format!("{:.2}", r.mrays_per_s),
             ]
         })
@@ -221,15 +229,19 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
     std::fs::write(&path, csv(&header, &table)).map_err(io(&path))?;
     let _ = writeln!(
         summary,
-        "## kdbeam against Embree 3 ({} primary rays, {size}, one thread, ci_over_ct 0.03)\n\n([CSV](embree.csv)){}\n\n| isa | packet | culling | Mrays/s |\n|---|---:|---|---:|",
+        "## kdbeam against Embree 3 ({} primary rays, {size}, one thread, ci_over_ct 0.03)\n\n([CSV](embree.csv)){}\n\n| isa | packet | culling | Embree context | Mrays/s |\n|---|---:|---|---|---:|",
         args.scene,
         if cfg!(feature = "embree") { "" } else { " — built without `--features embree`: kdbeam rows only" }
     );
     for r in &rows {
         let _ = writeln!(
             summary,
-            "| {} | {} | {} | {:.2} |",
-            r.isa, r.packet, r.culling, r.mrays_per_s
+            "| {} | {} | {} | {} | {:.2} |",
+            r.isa,
+            r.packet,
+            r.culling,
+            r.context.unwrap_or("-"),
+            r.mrays_per_s
         );
     }
     let path = args.out.join("summary.md");

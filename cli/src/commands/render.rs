@@ -38,9 +38,9 @@ pub(crate) struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
-    /// Culling in the leaves: none, 4plane, 6plane, 4plane+aperture, 6plane+aperture or auto,
-    /// optionally /masked|/maskless|/adaptive|/packet (whole-packet traversal) and
-    /// ,distance-first|,aperture-first.
+    /// Culling in the leaves: none, 4plane, 6plane or auto, `+aperture` to add the corner-ray
+    /// test, then options after `/`: masked, maskless, adaptive, packet (whole-packet
+    /// traversal), distance-first, aperture-first; e.g. `6plane+aperture/masked/distance-first`.
     #[arg(long, default_value = "auto")]
     culling: Culling,
     #[command(flatten)]

@@ -19,6 +19,6 @@ mod query;
 mod scene;
 mod tiles;
 
-pub use query::QUERY_WIDTHS;
+pub use query::{Context, EmbreeRays, QUERY_WIDTHS};
 pub use scene::{BuildQuality, EmbreeOptions, EmbreeScene};
 pub use tiles::{primary_rays, tile_order};

@@ -1,5 +1,5 @@
-//! Closest-hit queries: kdbeam rays into Embree's ray layouts, rtcIntersect1/4/8/16, and
-//! Embree's hits back into kdbeam [`Hit`]s.
+//! Closest-hit queries: kdbeam rays into Embree's ray layouts, rtcIntersect1/4/8/16 in a
+//! chosen intersect context, and Embree's hits back into kdbeam [`Hit`]s.
 
 use embree::sys;
 use kdbeam::kernels::lanes::with_flush_to_zero;
@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::EmbreeScene;
 
-/// The packet widths [`EmbreeScene::intersect_stream`] accepts: rtcIntersect1, 4, 8 and 16.
+/// The packet widths [`EmbreeRays::new`] accepts: rtcIntersect1, 4, 8 and 16.
 pub const QUERY_WIDTHS: [usize; 4] = [1, 4, 8, 16];
 
 /// Rays per unit of parallel work: a multiple of every width, so packets never straddle two.
@@ -18,125 +18,238 @@ const CHUNK: usize = 1024;
 /// Embree's `RTC_INVALID_GEOMETRY_ID`: "no hit" in `geomID`.
 const INVALID_ID: u32 = u32::MAX;
 
-impl EmbreeScene {
-    /// Closest hits of `rays`, written to `hits[i]` for `rays[i]`, traced with
-    /// rtcIntersect`width` on packets of `width` consecutive rays (the last one partly filled).
-    /// Parallel over chunks of 1024 rays on the current rayon pool; every chunk runs with
-    /// flush-to-zero and denormals-are-zero set, as Embree expects.
-    ///
-    /// A hit gives Embree's `t`, barycentrics `(u, v)` (weights of the second and third vertex,
-    /// as in kdbeam) and primitive id as the triangle. Rays kdbeam cannot trace (non-finite or
-    /// zero direction, non-finite origin, `tmin > tmax`, NaN `tmax`) and rays Embree cannot
-    /// (`tmin < 0`) are inactive lanes (`valid = 0`) and get [`Hit::NONE`]; so do directions
-    /// whose components are all denormal, which are zero under denormals-are-zero. Of two
-    /// triangles hit at the same `t`, either may be reported (kdbeam picks the smaller id).
+/// The intersect context flag, which decides how Embree 3's packet kernels traverse.
+///
+/// With [`Context::Coherent`] rtcIntersect4/8/16 take their frustum path (the packet's bounds
+/// tested against a node's child boxes at once), made for camera packets; with
+/// [`Context::Incoherent`] (`rtcInitIntersectContext`'s default) they trace lane by lane,
+/// which suits random and secondary rays. A comparison of camera packets against the
+/// incoherent context slows Embree down, so every Embree figure names its context.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Context {
+    /// `RTC_INTERSECT_CONTEXT_FLAG_COHERENT`.
+    Coherent,
+    /// `RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT`.
+    Incoherent,
+}
+
+impl Context {
+    /// Both, coherent first.
+    pub const ALL: [Context; 2] = [Context::Coherent, Context::Incoherent];
+
+    /// `coherent` or `incoherent`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Context::Coherent => "coherent",
+            Context::Incoherent => "incoherent",
+        }
+    }
+
+    fn flags(self) -> sys::RTCIntersectContextFlags {
+        match self {
+            Context::Coherent => sys::RTCIntersectContextFlags::COHERENT,
+            Context::Incoherent => sys::RTCIntersectContextFlags::INCOHERENT,
+        }
+    }
+
+    /// A context with these flags, no filter and no instance, as `rtcInitIntersectContext`
+    /// makes it.
+    fn context(self) -> sys::RTCIntersectContext {
+        sys::RTCIntersectContext {
+            flags: self.flags(),
+            filter: None,
+            instID: [INVALID_ID],
+        }
+    }
+}
+
+/// Rays converted into Embree's ray-and-hit layout for one query width: packets of `width`
+/// consecutive rays (the last one partly filled), each with its valid mask.
+///
+/// Made once, so that a benchmark times only the queries: tracing writes the hits into the
+/// layout (and shortens each ray's `tfar`), so a repeated measurement traces a fresh copy
+/// ([`Clone::clone_from`] of the untraced layout, a copy of plain memory).
+///
+/// Rays kdbeam cannot trace (non-finite or zero direction, non-finite origin, `tmin > tmax`,
+/// NaN `tmax`) and rays Embree cannot (`tmin < 0`) are inactive lanes (`valid = 0`) and get
+/// [`Hit::NONE`]; so do directions whose components are all denormal, which are zero under
+/// denormals-are-zero.
+#[derive(Clone)]
+pub struct EmbreeRays {
+    len: usize,
+    layout: Layout,
+}
+
+#[derive(Clone)]
+enum Layout {
+    W1(Packets<sys::RTCRayHit>),
+    W4(Packets<sys::RTCRayHit4>),
+    W8(Packets<sys::RTCRayHit8>),
+    W16(Packets<sys::RTCRayHit16>),
+}
+
+/// Packets of one width with their valid masks.
+#[derive(Clone)]
+struct Packets<P: RayHitPacket> {
+    packets: Vec<P>,
+    valid: Vec<P::Valid>,
+}
+
+impl EmbreeRays {
+    /// `rays` in packets of `width` rays.
     ///
     /// # Errors
-    /// [`Error::InvalidParameter`] when `width` is not 1, 4, 8 or 16 or when
-    /// `hits.len() != rays.len()`.
-    pub fn intersect_stream(&self, rays: &[Ray], width: usize, hits: &mut [Hit]) -> Result<()> {
-        if !QUERY_WIDTHS.contains(&width) {
-            return Err(Error::InvalidParameter {
-                name: "embree width",
-                message: format!("must be 1, 4, 8 or 16, got {width}"),
-            });
-        }
-        if rays.len() != hits.len() {
-            return Err(Error::InvalidParameter {
-                name: "stream output",
-                message: format!("{} outputs for {} rays", hits.len(), rays.len()),
-            });
-        }
-        let chunk = |(rays, hits): (&[Ray], &mut [Hit])| {
-            with_flush_to_zero(|| match width {
-                1 => self.trace_single(rays, hits),
-                4 => self.trace_packets::<sys::RTCRayHit4>(rays, hits),
-                8 => self.trace_packets::<sys::RTCRayHit8>(rays, hits),
-                _ => self.trace_packets::<sys::RTCRayHit16>(rays, hits),
-            })
+    /// [`Error::InvalidParameter`] when `width` is not 1, 4, 8 or 16.
+    pub fn new(rays: &[Ray], width: usize) -> Result<EmbreeRays> {
+        let layout = match width {
+            1 => Layout::W1(Packets::new(rays)),
+            4 => Layout::W4(Packets::new(rays)),
+            8 => Layout::W8(Packets::new(rays)),
+            16 => Layout::W16(Packets::new(rays)),
+            _ => {
+                return Err(Error::InvalidParameter {
+                    name: "embree width",
+                    message: format!("must be 1, 4, 8 or 16, got {width}"),
+                })
+            }
         };
-        rays.par_chunks(CHUNK)
-            .zip(hits.par_chunks_mut(CHUNK))
-            .for_each(chunk);
+        Ok(EmbreeRays {
+            len: rays.len(),
+            layout,
+        })
+    }
+
+    /// How many rays.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Are there no rays?
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// The closest hit of each ray after [`EmbreeScene::trace`], in the order of the rays
+    /// ([`Hit::NONE`] for an inactive lane or a miss, and for every ray before tracing). A hit
+    /// gives Embree's `t`, barycentrics `(u, v)` (weights of the second and third vertex, as
+    /// in kdbeam) and primitive id as the triangle.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `hits.len()` is not the number of rays.
+    pub fn hits(&self, hits: &mut [Hit]) -> Result<()> {
+        check_outputs(hits.len(), self.len)?;
+        match &self.layout {
+            Layout::W1(p) => p.hits(hits),
+            Layout::W4(p) => p.hits(hits),
+            Layout::W8(p) => p.hits(hits),
+            Layout::W16(p) => p.hits(hits),
+        }
         Ok(())
     }
+}
 
-    /// rtcIntersect1 on each ray.
-    fn trace_single(&self, rays: &[Ray], hits: &mut [Hit]) {
-        let mut context = intersect_context();
-        for (ray, hit) in rays.iter().zip(hits) {
-            if !is_active(ray) {
-                *hit = Hit::NONE;
-                continue;
-            }
-            let mut rh = sys::RTCRayHit {
-                ray: sys::RTCRay {
-                    org_x: ray.origin.x,
-                    org_y: ray.origin.y,
-                    org_z: ray.origin.z,
-                    tnear: ray.tmin,
-                    dir_x: ray.dir.x,
-                    dir_y: ray.dir.y,
-                    dir_z: ray.dir.z,
-                    time: 0.0,
-                    tfar: ray.tmax,
-                    mask: u32::MAX,
-                    id: 0,
-                    flags: 0,
-                },
-                hit: sys::RTCHit {
-                    Ng_x: 0.0,
-                    Ng_y: 0.0,
-                    Ng_z: 0.0,
-                    u: 0.0,
-                    v: 0.0,
-                    primID: INVALID_ID,
-                    geomID: INVALID_ID,
-                    instID: [INVALID_ID],
-                },
-            };
-            // SAFETY: the scene is committed and alive for `&self`; `context` and `rh` are
-            // initialised, properly aligned (RTCRayHit is `align(16)`) locals.
-            unsafe { sys::rtcIntersect1(self.handle(), &mut context, &mut rh) };
-            *hit = if rh.hit.geomID == INVALID_ID {
-                Hit::NONE
-            } else {
-                Hit {
-                    t: rh.ray.tfar,
-                    u: rh.hit.u,
-                    v: rh.hit.v,
-                    triangle: rh.hit.primID,
-                }
-            };
-        }
-    }
-
-    /// rtcIntersect`P::WIDTH` on packets of consecutive rays.
-    fn trace_packets<P: RayHitPacket>(&self, rays: &[Ray], hits: &mut [Hit]) {
-        let mut context = intersect_context();
-        let mut packet = P::empty();
-        let mut valid = P::Valid::default();
-        for (rays, hits) in rays.chunks(P::WIDTH).zip(hits.chunks_mut(P::WIDTH)) {
-            let lanes = valid.as_mut();
-            lanes.fill(0);
-            for (lane, ray) in rays.iter().enumerate() {
+impl<P: RayHitPacket> Packets<P> {
+    fn new(rays: &[Ray]) -> Self {
+        let mut packets = Vec::with_capacity(rays.len().div_ceil(P::WIDTH));
+        let mut valid = Vec::with_capacity(packets.capacity());
+        for chunk in rays.chunks(P::WIDTH) {
+            let mut packet = P::empty();
+            let mut mask = P::Valid::default();
+            for (lane, ray) in chunk.iter().enumerate() {
                 if is_active(ray) {
                     packet.set_ray(lane, ray);
-                    lanes[lane] = -1;
+                    mask.as_mut()[lane] = -1;
                 }
             }
-            // SAFETY: the scene is committed and alive for `&self`; `packet` and `valid` are
-            // initialised, and their types are aligned to the packet width (16, 32 or 64
-            // bytes) as rtcIntersect4/8/16 require.
-            unsafe { P::intersect(&valid, self.handle(), &mut context, &mut packet) };
+            packets.push(packet);
+            valid.push(mask);
+        }
+        Packets { packets, valid }
+    }
+
+    fn hits(&self, hits: &mut [Hit]) {
+        for ((packet, valid), hits) in self
+            .packets
+            .iter()
+            .zip(&self.valid)
+            .zip(hits.chunks_mut(P::WIDTH))
+        {
             for (lane, hit) in hits.iter_mut().enumerate() {
-                *hit = if valid.as_mut()[lane] == 0 {
+                *hit = if valid.as_ref()[lane] == 0 {
                     Hit::NONE
                 } else {
                     packet.hit(lane)
                 };
             }
         }
+    }
+
+    /// Traces every packet, in parallel over chunks of [`CHUNK`] rays on the current rayon
+    /// pool, each chunk with flush-to-zero and denormals-are-zero set, as Embree expects.
+    fn trace(&mut self, scene: &EmbreeScene, context: Context) {
+        let per_chunk = CHUNK / P::WIDTH;
+        self.packets
+            .par_chunks_mut(per_chunk)
+            .zip(self.valid.par_chunks(per_chunk))
+            .for_each(|(packets, valid)| {
+                with_flush_to_zero(|| {
+                    let mut context = context.context();
+                    for (packet, valid) in packets.iter_mut().zip(valid) {
+                        // SAFETY: the scene is committed and alive for `&scene`; `context`,
+                        // `packet` and `valid` are initialised, and aligned to the packet
+                        // width as Embree requires.
+                        unsafe { P::intersect(valid, scene.handle(), &mut context, packet) };
+                    }
+                })
+            });
+    }
+}
+
+impl EmbreeScene {
+    /// Traces `rays` with rtcIntersect`width` (the width they were made for) in `context`,
+    /// writing the closest hits into them ([`EmbreeRays::hits`] reads them). Tracing rays a
+    /// second time starts from the hits of the first (each ray's `tfar` is its hit): trace a
+    /// fresh copy instead.
+    pub fn trace(&self, rays: &mut EmbreeRays, context: Context) {
+        match &mut rays.layout {
+            Layout::W1(p) => p.trace(self, context),
+            Layout::W4(p) => p.trace(self, context),
+            Layout::W8(p) => p.trace(self, context),
+            Layout::W16(p) => p.trace(self, context),
+        }
+    }
+
+    /// Closest hits of `rays`, written to `hits[i]` for `rays[i]`, traced with
+    /// rtcIntersect`width` in `context` on packets of `width` consecutive rays: [`EmbreeRays`]
+    /// made, traced and read back in one call. Of two triangles hit at the same `t`, either may
+    /// be reported (kdbeam picks the smaller id).
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `width` is not 1, 4, 8 or 16 or when
+    /// `hits.len() != rays.len()`.
+    pub fn intersect_stream(
+        &self,
+        rays: &[Ray],
+        width: usize,
+        context: Context,
+        hits: &mut [Hit],
+    ) -> Result<()> {
+        let mut layout = EmbreeRays::new(rays, width)?;
+        check_outputs(hits.len(), rays.len())?;
+        self.trace(&mut layout, context);
+        layout.hits(hits)
+    }
+}
+
+fn check_outputs(outputs: usize, rays: usize) -> Result<()> {
+    if outputs == rays {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            name: "stream output",
+            message: format!("{outputs} outputs for {rays} rays"),
+        })
     }
 }
 
@@ -146,21 +259,12 @@ fn is_active(ray: &Ray) -> bool {
     is_traceable(ray) && ray.tmin >= 0.0
 }
 
-/// Embree's default context (`rtcInitIntersectContext`: incoherent, no filter, no instance).
-fn intersect_context() -> sys::RTCIntersectContext {
-    sys::RTCIntersectContext {
-        flags: sys::RTCIntersectContextFlags::INCOHERENT,
-        filter: None,
-        instID: [INVALID_ID],
-    }
-}
-
-/// An Embree SoA ray-and-hit packet of `WIDTH` lanes with its valid mask.
-trait RayHitPacket {
+/// An Embree ray-and-hit packet of `WIDTH` lanes (one for rtcIntersect1) with its valid mask.
+trait RayHitPacket: Copy + Send + Sync {
     /// Lanes.
     const WIDTH: usize;
     /// The valid mask (-1 traces a lane, 0 skips it), aligned as the packet.
-    type Valid: Default + AsMut<[i32]>;
+    type Valid: Copy + Default + Send + Sync + AsRef<[i32]> + AsMut<[i32]>;
     /// A packet with every lane empty.
     fn empty() -> Self;
     /// Loads `ray` into `lane` and clears its hit.
@@ -179,12 +283,105 @@ trait RayHitPacket {
     );
 }
 
+/// The valid mask of a single ray: rtcIntersect1 takes none, so an inactive ray is not traced.
+#[derive(Clone, Copy, Default)]
+struct Valid1([i32; 1]);
+
+impl AsRef<[i32]> for Valid1 {
+    fn as_ref(&self) -> &[i32] {
+        &self.0
+    }
+}
+
+impl AsMut<[i32]> for Valid1 {
+    fn as_mut(&mut self) -> &mut [i32] {
+        &mut self.0
+    }
+}
+
+impl RayHitPacket for sys::RTCRayHit {
+    const WIDTH: usize = 1;
+    type Valid = Valid1;
+
+    fn empty() -> Self {
+        sys::RTCRayHit {
+            ray: sys::RTCRay {
+                org_x: 0.0,
+                org_y: 0.0,
+                org_z: 0.0,
+                tnear: 0.0,
+                dir_x: 0.0,
+                dir_y: 0.0,
+                dir_z: 1.0,
+                time: 0.0,
+                tfar: 0.0,
+                mask: u32::MAX,
+                id: 0,
+                flags: 0,
+            },
+            hit: sys::RTCHit {
+                Ng_x: 0.0,
+                Ng_y: 0.0,
+                Ng_z: 0.0,
+                u: 0.0,
+                v: 0.0,
+                primID: INVALID_ID,
+                geomID: INVALID_ID,
+                instID: [INVALID_ID],
+            },
+        }
+    }
+
+    #[inline]
+    fn set_ray(&mut self, _lane: usize, ray: &Ray) {
+        let r = &mut self.ray;
+        (r.org_x, r.org_y, r.org_z) = (ray.origin.x, ray.origin.y, ray.origin.z);
+        (r.dir_x, r.dir_y, r.dir_z) = (ray.dir.x, ray.dir.y, ray.dir.z);
+        (r.tnear, r.tfar) = (ray.tmin, ray.tmax);
+        (self.hit.primID, self.hit.geomID) = (INVALID_ID, INVALID_ID);
+    }
+
+    #[inline]
+    fn hit(&self, _lane: usize) -> Hit {
+        if self.hit.geomID == INVALID_ID {
+            Hit::NONE
+        } else {
+            Hit {
+                t: self.ray.tfar,
+                u: self.hit.u,
+                v: self.hit.v,
+                triangle: self.hit.primID,
+            }
+        }
+    }
+
+    #[inline]
+    unsafe fn intersect(
+        valid: &Valid1,
+        scene: sys::RTCScene,
+        context: &mut sys::RTCIntersectContext,
+        packet: &mut Self,
+    ) {
+        if valid.0[0] != 0 {
+            // SAFETY: the caller guarantees the scene; `packet` is a live RTCRayHit, which is
+            // `align(16)` as rtcIntersect1 requires.
+            unsafe { sys::rtcIntersect1(scene, context, packet) }
+        }
+    }
+}
+
 macro_rules! ray_hit_packet {
     ($packet:ident, $ray:ident, $hit:ident, $valid:ident, $align:literal, $n:literal, $f:ident) => {
         #[doc = concat!("A valid mask for rtcIntersect", stringify!($n), ", aligned to the packet as Embree requires (an unaligned mask crashes).")]
         #[repr(C, align($align))]
-        #[derive(Default)]
+        #[derive(Clone, Copy, Default)]
         struct $valid([i32; $n]);
+
+        impl AsRef<[i32]> for $valid {
+            fn as_ref(&self) -> &[i32] {
+                &self.0
+            }
+        }
 
         impl AsMut<[i32]> for $valid {
             fn as_mut(&mut self) -> &mut [i32] {
