@@ -1,5 +1,7 @@
 //! Scenes: validated meshes, OBJ loading, procedural and synthetic generators.
 
+#[cfg(feature = "tobj")]
+mod from_tobj;
 mod mesh;
 mod obj;
 pub mod procedural;
