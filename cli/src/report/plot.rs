@@ -1,6 +1,8 @@
-//! A minimal SVG line plot: enough for the paper's figures, no dependency.
+//! Line plots of the figures, drawn as SVG by plotters (its SVG backend, no font library: the
+//! labels stay SVG text, set by the viewer's sans-serif font).
 
-use std::fmt::Write;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::prelude::*;
 
 /// One named line of `(x, y)` points.
 #[derive(Clone, Debug, PartialEq)]
@@ -20,143 +22,137 @@ pub struct LinePlot {
     pub x_label: String,
     /// Y axis label.
     pub y_label: String,
-    /// Logarithmic x axis (all x must be > 0).
+    /// Logarithmic x axis (points with x ≤ 0 are skipped).
     pub log_x: bool,
     /// The lines.
     pub series: Vec<Series>,
 }
 
-const W: f64 = 720.0;
-const H: f64 = 440.0;
-const LEFT: f64 = 70.0;
-const RIGHT: f64 = 190.0;
-const TOP: f64 = 40.0;
-const BOTTOM: f64 = 60.0;
-const COLORS: [&str; 8] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+const SIZE: (u32, u32) = (760, 460);
+
+/// Line colours, in series order (matplotlib's first eight, distinct in print and on screen).
+const COLORS: [RGBColor; 8] = [
+    RGBColor(0x1f, 0x77, 0xb4),
+    RGBColor(0xd6, 0x27, 0x28),
+    RGBColor(0x2c, 0xa0, 0x2c),
+    RGBColor(0xff, 0x7f, 0x0e),
+    RGBColor(0x94, 0x67, 0xbd),
+    RGBColor(0x8c, 0x56, 0x4b),
+    RGBColor(0xe3, 0x77, 0xc2),
+    RGBColor(0x17, 0xbe, 0xcf),
 ];
 
 impl LinePlot {
-    /// The plot as an SVG document. An empty plot (no finite point) draws only the frame.
+    /// The plot as an SVG document. An empty plot (no drawable point) draws only the axes.
     pub fn to_svg(&self) -> String {
-        let fx = |x: f64| if self.log_x { x.log10() } else { x };
-        let pts: Vec<(f64, f64)> = self
-            .series
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, SIZE).into_drawing_area();
+            // Drawing into a String cannot fail: the backend's only errors are I/O errors.
+            let _ = self.draw(&root);
+        }
+        svg
+    }
+
+    /// The drawable points of `series`: finite, and x > 0 on a logarithmic axis.
+    fn points<'a>(&self, series: &'a Series) -> impl Iterator<Item = (f64, f64)> + 'a {
+        let log_x = self.log_x;
+        series
+            .points
             .iter()
-            .flat_map(|s| s.points.iter().copied())
-            .filter(|&(x, y)| x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0))
-            .map(|(x, y)| (fx(x), y))
-            .collect();
-        let (x0, x1) = pts
+            .copied()
+            .filter(move |&(x, y)| x.is_finite() && y.is_finite() && (!log_x || x > 0.0))
+    }
+
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+        root.fill(&WHITE)?;
+        let all: Vec<(f64, f64)> = self.series.iter().flat_map(|s| self.points(s)).collect();
+        let (x0, x1) = all
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
                 (a.min(p.0), b.max(p.0))
             });
-        let y1 = pts.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.08;
-        let (x0, x1) = if x0 < x1 {
-            (x0, x1)
-        } else {
-            (x0 - 1.0, x0 + 1.0)
+        let (x0, x1) = match (x0 < x1, self.log_x) {
+            (true, _) => (x0, x1),
+            (false, true) if x0.is_finite() => (x0 / 2.0, x0 * 2.0),
+            (false, false) if x0.is_finite() => (x0 - 1.0, x0 + 1.0),
+            (false, true) => (0.1, 10.0),
+            (false, false) => (0.0, 1.0),
         };
+        let y1 = all.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.08;
         let y1 = if y1 > 0.0 { y1 } else { 1.0 };
-        let (pw, ph) = (W - LEFT - RIGHT, H - TOP - BOTTOM);
-        let sx = |x: f64| LEFT + (fx(x) - x0) / (x1 - x0) * pw;
-        let sy = |y: f64| TOP + ph - y / y1 * ph;
-        let mut s = String::new();
-        let _ = write!(
-            s,
-            r##"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="12">
-<rect width="100%" height="100%" fill="white"/>
-<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>
-<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#444"/>
-"##,
-            LEFT + pw / 2.0,
-            escape(&self.title)
-        );
-        for i in 0..=5 {
-            let y = y1 * i as f64 / 5.0;
-            let _ = writeln!(
-                s,
-                r##"<line x1="{LEFT}" x2="{0}" y1="{1:.1}" y2="{1:.1}" stroke="#ddd"/><text x="{2}" y="{3:.1}" text-anchor="end">{4:.3}</text>"##,
-                LEFT + pw,
-                sy(y),
-                LEFT - 6.0,
-                sy(y) + 4.0,
-                y
-            );
-        }
-        let ticks: Vec<f64> = if self.log_x {
-            (x0.floor() as i32..=x1.ceil() as i32)
-                .flat_map(|e| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(e)))
-                .filter(|&x| fx(x) >= x0 - 1e-9 && fx(x) <= x1 + 1e-9)
-                .collect()
+        if self.log_x {
+            self.draw_on(root, (x0..x1).log_scale(), y1)
         } else {
-            (0..=5).map(|i| x0 + (x1 - x0) * i as f64 / 5.0).collect()
-        };
-        for x in ticks {
-            let _ = writeln!(
-                s,
-                r##"<line x1="{0:.1}" x2="{0:.1}" y1="{TOP}" y2="{1}" stroke="#eee"/><text x="{0:.1}" y="{2}" text-anchor="middle">{3}</text>"##,
-                sx(x),
-                TOP + ph,
-                TOP + ph + 16.0,
-                format_tick(x)
-            );
+            self.draw_on(root, x0..x1, y1)
         }
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}" text-anchor="middle">{}</text><text transform="translate(18,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            LEFT + pw / 2.0,
-            H - 18.0,
-            escape(&self.x_label),
-            TOP + ph / 2.0,
-            escape(&self.y_label)
-        );
+    }
+
+    fn draw_on<DB: DrawingBackend, X>(
+        &self,
+        root: &DrawingArea<DB, plotters::coord::Shift>,
+        x: X,
+        y1: f64,
+    ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+    where
+        X: AsRangedCoord<Value = f64>,
+        X::CoordDescType: ValueFormatter<f64>,
+    {
+        let mut chart = ChartBuilder::on(root)
+            .caption(&self.title, ("sans-serif", 17))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(64)
+            .build_cartesian_2d(x, 0.0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc(&self.x_label)
+            .y_desc(&self.y_label)
+            .label_style(("sans-serif", 13))
+            .x_label_formatter(&|x| format_tick(*x))
+            .y_label_formatter(&|y| format_tick(*y))
+            .light_line_style(WHITE.mix(0.0))
+            .draw()?;
         for (k, series) in self.series.iter().enumerate() {
             let color = COLORS[k % COLORS.len()];
-            let path: Vec<String> = series
-                .points
-                .iter()
-                .filter(|&&(x, y)| x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0))
-                .map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y)))
-                .collect();
-            let _ = writeln!(
-                s,
-                r#"<polyline points="{}" fill="none" stroke="{color}" stroke-width="2"/>"#,
-                path.join(" ")
-            );
-            for p in &path {
-                let (x, y) = p.split_once(',').unwrap_or(("0", "0"));
-                let _ = writeln!(s, r#"<circle cx="{x}" cy="{y}" r="3" fill="{color}"/>"#);
-            }
-            let ly = TOP + 14.0 + 20.0 * k as f64;
-            let _ = writeln!(
-                s,
-                r#"<line x1="{0}" x2="{1}" y1="{ly}" y2="{ly}" stroke="{color}" stroke-width="2"/><text x="{2}" y="{3}">{4}</text>"#,
-                W - RIGHT + 12.0,
-                W - RIGHT + 36.0,
-                W - RIGHT + 42.0,
-                ly + 4.0,
-                escape(&series.name)
-            );
+            let points: Vec<(f64, f64)> = self.points(series).collect();
+            chart
+                .draw_series(LineSeries::new(points.clone(), color.stroke_width(2)))?
+                .label(&series.name)
+                .legend(move |(x, y)| {
+                    PathElement::new([(x, y), (x + 20, y)], color.stroke_width(2))
+                });
+            chart.draw_series(
+                points
+                    .into_iter()
+                    .map(|p| Circle::new(p, 3, color.filled())),
+            )?;
         }
-        s.push_str("</svg>\n");
-        s
+        if !self.series.is_empty() {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.4))
+                .label_font(("sans-serif", 13))
+                .draw()?;
+        }
+        root.present()
     }
 }
 
-fn format_tick(x: f64) -> String {
-    if x.abs() >= 100.0 || x == x.round() {
-        format!("{x:.0}")
+/// A tick label: at most six significant decimals, no trailing zeros (`2`, `0.25`, `1.5`).
+fn format_tick(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
     } else {
-        format!("{}", (x * 1000.0).round() / 1000.0)
+        s.into()
     }
-}
-
-fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
 }
 
 #[cfg(test)]
@@ -164,11 +160,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn svg_has_one_polyline_per_series_and_skips_bad_points() {
+    fn svg_has_one_line_per_series_labels_as_text_and_skips_bad_points() {
         let p = LinePlot {
             title: "a < b".into(),
-            x_label: "x".into(),
-            y_label: "y".into(),
+            x_label: "leaf edge / triangle edge".into(),
+            y_label: "Mrays/s".into(),
             log_x: true,
             series: vec![
                 Series {
@@ -182,12 +178,51 @@ mod tests {
             ],
         };
         let svg = p.to_svg();
-        assert_eq!(svg.matches("<polyline").count(), 2);
+        assert!(svg.starts_with("<svg"), "{svg}");
+        // Each series' colour strokes its line and its legend entry.
+        for color in ["#1F77B4", "#D62728"] {
+            let strokes = svg.matches(&format!("stroke=\"{color}\"")).count();
+            assert_eq!(strokes, 2, "{color} in {svg}");
+        }
         assert_eq!(
             svg.matches("<circle").count(),
             3,
             "NaN and x <= 0 on a log axis are skipped"
         );
-        assert!(svg.contains("a &lt; b") && !svg.contains("NaN"));
+        // Plotters writes each label as the text of its own element, on a line of its own.
+        for text in [
+            "a &lt; b",
+            "leaf edge / triangle edge",
+            "Mrays/s",
+            "one",
+            "two",
+        ] {
+            assert!(svg.contains(&format!("\n{text}\n")), "no {text:?} in {svg}");
+        }
+        assert!(!svg.contains("NaN"));
+    }
+
+    #[test]
+    fn an_empty_plot_still_draws_its_axes() {
+        let p = LinePlot {
+            title: "empty".into(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            log_x: false,
+            series: vec![],
+        };
+        let svg = p.to_svg();
+        assert!(
+            svg.contains("\nempty\n") && svg.contains("<polyline"),
+            "{svg}"
+        );
+    }
+
+    #[test]
+    fn ticks_are_short() {
+        assert_eq!(format_tick(2.0), "2");
+        assert_eq!(format_tick(0.25), "0.25");
+        assert_eq!(format_tick(25.181_000_000_1), "25.181");
+        assert_eq!(format_tick(-0.0), "0");
     }
 }
