@@ -32,7 +32,7 @@ const MIN_AGREEMENT: f64 = 0.999;
 /// Embree either, and the two tests may put a ray within an ulp of the edge on different
 /// sides. It is detected by kdbeam's watertight test on Embree's triangle grown by
 /// [`TIE_ULPS`] about its centroid: a hit within [`T_TOLERANCE`] of kdbeam's `t`.
-/// DESIGN.md: ties are reported, not counted as errors.
+/// Ties are reported, not counted as errors: either triangle is a correct answer.
 struct Agreement {
     /// 1% of the scene's diagonal (see [`T_TOLERANCE`]).
     near: f32,

@@ -1,6 +1,6 @@
 //! Synthetic Kensler–Shirley data: one leaf cell of random triangles and packets of parallel
-//! rays through it (DESIGN.md, "Synthetic Kensler–Shirley data"; Reshetov, RT07, section 3.1 and
-//! Figs. 3–5).
+//! rays through it (A. Reshetov, *Faster Ray Packets – Triangle Intersection through Vertex
+//! Culling*, RT07, section 3.1 and Figs. 3–5).
 //!
 //! The RT06 generator is not public, so kdbeam defines its own, seeded by [`Rng`]:
 //!
@@ -11,12 +11,12 @@
 //!   uniformly). Vertices may stick out of the cell, as triangles straddling a kd-tree split do.
 //! - **Calibration**: RT06 aims at 25% of ray–triangle pairs intersecting (Reshetov, RT07,
 //!   section 3: "aiming at 25% probability of intersection for any given triangle"), and
-//!   DESIGN.md sets `tmax` to reach it at ratio 1. Uniformly oriented triangles of edge 1 cannot:
+//!   kdbeam sets `tmax` to reach it at ratio 1. Uniformly oriented triangles of edge 1 cannot:
 //!   one covers on average (√3/4)·½ ≈ 22% of the cell's face in projection, less the part that
 //!   falls outside it, and all pairs together plateau at 15% for any `tmax`. Triangles that
 //!   face the packets, as the surfaces a primary-ray packet meets mostly do, cover more, so the
 //!   default cone of [`DEFAULT_NORMAL_CONE`] raises the plateau above 25% and [`calibrate_tmax`]
-//!   can meet the target by `tmax`, as DESIGN.md asks; [`CALIBRATED_TMAX`] is the result.
+//!   can meet the target by `tmax`; [`CALIBRATED_TMAX`] is the result.
 //! - **Packets**: `n × n` parallel rays. The common direction is `+z` tilted by up to
 //!   [`MAX_TILT`] on x and y; the rays cross the cell's entry face `z = 0` on an `n × n` grid of
 //!   side `jitter` (times the cell edge) centred at a uniform point of that face, and start on

@@ -152,7 +152,7 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
     Ok(points)
 }
 
-/// The figure of merit: the fastest point with culling against the fastest without,
+/// The sweep's figure of merit: the fastest point with culling against the fastest without,
 /// with their tree sizes, as one line of text (`None` without both kinds of point).
 pub(crate) fn best_culled_vs_unculled(points: &[Point]) -> Option<String> {
     let fastest = |culled: bool| {

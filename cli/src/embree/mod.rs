@@ -1,7 +1,7 @@
 //! Embree 3 side by side with kdbeam, on the same rays (the `embree` feature).
 //!
-//! DESIGN.md asks for every performance claim to be a ratio against baselines measured in the
-//! same run; Embree's BVH and its rtcIntersect1/4/8/16 kernels are the outside one. This module
+//! Every performance claim of kdbeam is a ratio against baselines measured in the same run;
+//! Embree's BVH and its rtcIntersect1/4/8/16 kernels are the outside one. This module
 //! uploads a [`Mesh`](kdbeam::Mesh) to Embree ([`EmbreeScene`]) and traces slices of kdbeam
 //! [`Ray`](kdbeam::Ray)s into kdbeam [`Hit`](kdbeam::Hit)s
 //! ([`EmbreeScene::intersect_stream`]), in packets of 1, 4, 8 or 16 rays.
