@@ -118,6 +118,9 @@ struct Best {
     kdbeam_ci_over_ct: Option<f32>,
     kdbeam_mrays_per_s: f64,
     context: &'static str,
+    /// Is `context` the one these rays call for (coherent for primary rays, incoherent for
+    /// random ones), the fair comparison?
+    context_matches_rays: bool,
     embree_packet: usize,
     embree_mrays_per_s: f64,
     /// kdbeam's Mrays/s over Embree's.
@@ -447,6 +450,13 @@ pub(crate) fn embree_seconds(
 /// Prints, per thread count of `rows` (one scene's), kdbeam's fastest row against Embree's
 /// fastest in each context measured.
 fn print_best(rows: &[Row], json: bool) {
+    let matching = |rays: &str| {
+        if rays == RaySet::Primary.name() {
+            "coherent"
+        } else {
+            "incoherent"
+        }
+    };
     let mut threads: Vec<usize> = rows.iter().map(|r| r.threads).collect();
     threads.sort_unstable();
     threads.dedup();
@@ -477,6 +487,7 @@ fn print_best(rows: &[Row], json: bool) {
                 kdbeam_ci_over_ct: kd.ci_over_ct,
                 kdbeam_mrays_per_s: kd.mrays_per_s,
                 context,
+                context_matches_rays: matching(kd.rays) == context,
                 embree_packet: em.packet,
                 embree_mrays_per_s: em.mrays_per_s,
                 ratio: kd.mrays_per_s / em.mrays_per_s,
@@ -484,7 +495,7 @@ fn print_best(rows: &[Row], json: bool) {
             print_json_or(&best, json, || {
                 format!(
                     "best       {}, threads {}: kdbeam {} packet {} culling {} ci {} at {:.2} Mrays/s \
-                     = {:.2}x Embree's best {} (rtcIntersect{}, {:.2} Mrays/s)",
+                     = {:.2}x Embree's best {} (rtcIntersect{}, {:.2} Mrays/s){}",
                     best.scene,
                     t,
                     best.kdbeam_isa,
@@ -496,6 +507,11 @@ fn print_best(rows: &[Row], json: bool) {
                     context,
                     best.embree_packet,
                     best.embree_mrays_per_s,
+                    if best.context_matches_rays {
+                        ": the context for these rays"
+                    } else {
+                        ""
+                    },
                 )
             });
         }
