@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Fails when the release CLI calls a `core::arch` intrinsic out of line.
+# Fails when the release CLI (cli/, binary `kdbeam`) calls a `core::arch` intrinsic out of line.
 #
 # The kernels are generic over `Lanes` and reach an ISA's target features only by being inlined
 # into its entry point (`kernels/src/lanes/`). Code that is not inlined there (typically the
 # closure of an `array::map` or `array::from_fn`, which rustc may leave out of line) runs
-# without the ISA's features, so every intrinsic it uses becomes a function call: the
-# watertight AVX2 packet kernel ran 5–9 times slower that way, with the same results. Only
-# std's CPU feature detection may call one (`_xgetbv`).
+# without the ISA's features, so every intrinsic it uses becomes a function call: a kernel
+# then gives the same results several times slower, which no test would notice. Only std's
+# CPU feature detection may call one (`_xgetbv`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

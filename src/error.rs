@@ -69,10 +69,6 @@ pub enum Error {
     /// `builtin:NAME` names no built-in scene.
     #[error("unknown built-in scene {0:?} (try builtin:default, builtin:icosphere, builtin:grid, builtin:soup, builtin:hair, builtin:terrain)")]
     UnknownScene(String),
-    /// Embree reported an error (only with the `embree` feature).
-    #[cfg(feature = "embree")]
-    #[error("embree: {0}")]
-    Embree(String),
 }
 
 /// `Result<T, kdbeam::Error>`.

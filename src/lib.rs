@@ -2,12 +2,9 @@
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
 
-#[cfg(feature = "embree")]
-pub mod embree;
 mod error;
 pub mod kdtree;
-pub mod render;
-pub mod report;
+pub mod rays;
 pub mod scene;
 pub mod trace;
 
@@ -16,5 +13,6 @@ pub use glam::Vec3;
 pub use kdbeam_kernels as kernels;
 pub use kdbeam_kernels::{Aabb, Hit, HitPacket, Isa, PacketShape, Ray, RayPacket, Triangle};
 pub use kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
+pub use rays::Camera;
 pub use scene::Mesh;
 pub use trace::{Intersector, Tracer};

@@ -133,7 +133,7 @@ fn mesh_constructors_reject_malformed_input() {
 #[test]
 fn build_params_at_the_ends_of_their_ranges_build() {
     let mesh = kdbeam::scene::procedural::icosphere(Vec3::ZERO, 1.0, 2);
-    let rays = kdbeam::render::random_rays(&mesh.bounds(), 200, 3);
+    let rays = kdbeam::rays::random_rays(&mesh.bounds(), 200, 3);
     for params in [
         BuildParams {
             ci_over_ct: f32::MIN_POSITIVE,

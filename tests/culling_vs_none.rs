@@ -15,10 +15,10 @@ mod common;
 mod fuzz_checks;
 
 use fuzz_checks::wins_by_an_extra_test;
-use kdbeam::render::Camera;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
 use kdbeam::trace::{Culling, Frustum, PacketCounters};
+use kdbeam::Camera;
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
     Tracer, Vec3,

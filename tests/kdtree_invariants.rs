@@ -3,16 +3,16 @@
 //! tight and conservative leaf boxes, depth and leaf-size limits, statistics, parameter
 //! validation, and robustness on degenerate, flat, empty and far-from-origin meshes.
 //!
-//! The real-scene tests are named `real_scene_*`: they need the OBJ loader and the scenes in
-//! `$KDBEAM_SCENES` (default `<CARGO_MANIFEST_DIR>/../shared/scenes`), and are skipped, with a
-//! message, only when that directory is missing.
+//! The real-scene tests are named `real_scene_*`: they need the shared scenes (found as
+//! `tests/common/scenes.rs` says), and are skipped, with a message saying why, without them.
 
 use std::collections::BTreeSet;
-use std::path::PathBuf;
 
 use kdbeam::kdtree::LeafRecord;
 use kdbeam::kernels::{KsTriangle, Vec3};
 use kdbeam::{Aabb, BuildParams, Error, KdTree, Mesh, Triangle};
+
+mod common;
 
 // ---------------------------------------------------------------------------------------------
 // Meshes (small local generators: the scene generators belong to another module).
@@ -716,7 +716,7 @@ fn duplicated_triangles_build() {
 
 #[test]
 fn huge_offsets_build() {
-    // DESIGN.md's leak-test sphere far from the origin, and a soup 1e5 away.
+    // The leak tests' sphere far from the origin, and a soup 1e5 away.
     let center = [148376.0, 1234.0, -223423.0];
     for ci in [0.1, 1.0, 10.0] {
         build_and_check(&sphere(12, 24, 50.0, center), &params(ci));
@@ -725,50 +725,36 @@ fn huge_offsets_build() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Real scenes (need the OBJ loader; fail with the placeholder loader until it lands).
+// Real scenes.
 
-fn scenes_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("KDBEAM_SCENES")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"));
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!(
-            "real_scene_*: skipped, no scene directory {}",
-            dir.display()
-        );
-        None
-    }
-}
-
-fn real_scene(relative: &str) {
-    let Some(dir) = scenes_dir() else { return };
-    let path = dir.join(relative);
-    let mesh = kdbeam::scene::load_obj(&path)
-        .unwrap_or_else(|e| panic!("loading {}: {e}", path.display()));
+/// Builds the shared scene `name` at two tree sizes and checks every invariant; skipped, saying
+/// why, when the scene is not there.
+fn real_scene(name: &str) {
+    let Some(mesh) = common::scenes::load_shared(name) else {
+        return;
+    };
     for ci in [1.0, 10.0] {
         let tree = build_and_check(&mesh, &params(ci));
-        println!("{relative} ci/ct {ci}: {}", tree.stats());
+        println!("{name} ci/ct {ci}: {}", tree.stats());
     }
 }
 
 #[test]
 fn real_scene_bunny() {
-    real_scene("bunny/stanford-bunny.obj");
+    real_scene("bunny");
 }
 
 #[test]
 fn real_scene_sponza() {
-    real_scene("sponza_dabrovic/sponza.obj.gz");
+    real_scene("sponza");
 }
 
 #[test]
 fn real_scene_dragon() {
-    real_scene("dragon_100k/dragon.obj");
+    real_scene("dragon");
 }
 
 #[test]
 fn real_scene_killeroo() {
-    real_scene("killeroo/killeroo_cage.obj");
+    real_scene("killeroo");
 }

@@ -20,7 +20,7 @@
 mod common;
 
 use kdbeam::kernels::intersect::oracle::OracleRay;
-use kdbeam::render::random_rays;
+use kdbeam::rays::random_rays;
 use kdbeam::trace::reference::{brute_force, kd_oracle, ReferenceHit};
 use kdbeam::{BuildParams, Intersector, Isa, KdTree, Mesh, Ray, Tracer};
 use rayon::prelude::*;

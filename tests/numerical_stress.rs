@@ -9,7 +9,7 @@
 mod fuzz_checks;
 
 use fuzz_checks::packets_equal_scalar;
-use kdbeam::render::random_rays;
+use kdbeam::rays::random_rays;
 use kdbeam::scene::procedural::{closed_grid_box, icosphere, quad_grid};
 use kdbeam::scene::rng::Rng;
 use kdbeam::trace::reference::brute_force;
@@ -344,7 +344,7 @@ fn nan_and_infinite_lanes_miss_and_leave_the_others_alone() {
         }
     }
     // Interleave: every packet of every shape gets bad lanes at varying positions.
-    let good = kdbeam::render::Camera::standard(&mesh.bounds(), 16, 16).rays();
+    let good = kdbeam::Camera::standard(&mesh.bounds(), 16, 16).rays();
     let mut rays = Vec::new();
     for (k, r) in good.iter().enumerate() {
         rays.push(*r);

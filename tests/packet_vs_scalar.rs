@@ -8,7 +8,7 @@
 
 mod common;
 
-use kdbeam::render::random_rays;
+use kdbeam::rays::random_rays;
 use kdbeam::scene::rng::Rng;
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, PacketShape, Ray, RayPacket, Tracer,

@@ -1,22 +1,22 @@
 //! What the benches share.
 
-use kdbeam::scene::{self, procedural};
+use kdbeam::scene::procedural;
 use kdbeam::Mesh;
 
-/// The shared bunny, sponza and dragon when `KDBEAM_SCENES` finds them, else the built-in
-/// default scene (saying so).
+#[path = "../../tests/common/scenes.rs"]
+#[allow(dead_code)]
+mod scenes;
+
+/// The shared bunny, sponza and dragon when `KDBEAM_SCENES` (or the default beside the
+/// checkout) finds them, each missing one skipped with a message saying why; the built-in
+/// default scene when none is found.
 pub fn scenes() -> Vec<(String, Mesh)> {
-    let mut out = Vec::new();
-    for name in ["bunny", "sponza", "dragon"] {
-        if let Some(path) = scene::shared_scene(name) {
-            out.push((
-                name.to_string(),
-                scene::load_obj(path).expect("shared scene loads"),
-            ));
-        }
-    }
+    let mut out: Vec<(String, Mesh)> = ["bunny", "sponza", "dragon"]
+        .into_iter()
+        .filter_map(|name| Some((name.to_string(), scenes::load_shared(name)?)))
+        .collect();
     if out.is_empty() {
-        eprintln!("shared scenes not found: measuring builtin:default only");
+        eprintln!("no shared scene found: measuring builtin:default only");
         out.push((
             "builtin:default".into(),
             procedural::builtin("default").expect("built-in"),

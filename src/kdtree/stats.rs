@@ -8,7 +8,7 @@ use kdbeam_kernels::{Aabb, DVec3};
 use super::Node;
 
 /// What a build produced and how long it took.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BuildStats {
     /// Triangles in the mesh.
     pub triangles: usize,
@@ -25,7 +25,6 @@ pub struct BuildStats {
     /// Bytes of nodes, leaf records and leaf-ordered triangle arrays.
     pub bytes: usize,
     /// Wall-clock time of the build.
-    #[serde(serialize_with = "seconds")]
     pub build_time: Duration,
 }
 
@@ -67,10 +66,6 @@ pub(super) fn sah_cost(
         stack.push((at + 1, below));
     }
     cost
-}
-
-fn seconds<S: serde::Serializer>(d: &Duration, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_f64(d.as_secs_f64())
 }
 
 impl BuildStats {

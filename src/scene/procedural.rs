@@ -534,7 +534,7 @@ mod tests {
 
     #[test]
     fn far_away_icosphere_is_still_closed() {
-        // The leak test's centre (DESIGN.md), where one ulp is 1/64.
+        // The leak tests' far-away centre, where one ulp is 1/64.
         let sphere = icosphere(Vec3::new(148_376.0, 1234.0, -223_423.0), 100.0, 4);
         assert_eq!(sphere.triangle_count(), 5120);
         assert_closed(&sphere);

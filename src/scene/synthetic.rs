@@ -45,7 +45,7 @@ pub const DEFAULT_NORMAL_CONE: f32 = 30.0;
 pub const CALIBRATED_TMAX: f32 = 1.875;
 
 /// What to generate.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SyntheticParams {
     /// Cell edge over triangle edge: 1 (RT06's setup) to 10 (Reshetov's Fig. 3 abscissa).
     pub ratio: f32,

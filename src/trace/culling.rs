@@ -8,8 +8,7 @@ use kdbeam_kernels::beam::Stages;
 use crate::{Error, Result};
 
 /// The frustum planes a beam checks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Planes {
     /// No beam: every active ray is tested against every triangle (the Kensler–Shirley
     /// baseline when the intersector is Kensler–Shirley).
@@ -21,8 +20,7 @@ pub enum Planes {
 }
 
 /// Which rays a beam is built around.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Frustum {
     /// Every ray of the packet (cheaper to reason about; looser deep in the tree).
     Maskless,
@@ -60,7 +58,7 @@ pub enum Frustum {
 /// Every stage is conservative: the closest hit of every ray, its `t` and its triangle id are
 /// the same as without culling (the differential tests check this on every ISA and packet
 /// size).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Culling {
     /// Frustum planes.
     pub planes: Planes,

@@ -20,8 +20,7 @@ use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacke
 
 pub use culling::{Culling, Frustum, Planes};
 pub use packet::PacketCounters;
-#[cfg(feature = "embree")]
-pub(crate) use single::is_traceable;
+pub use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
 
@@ -29,8 +28,7 @@ use crate::kdtree::KdTree;
 use crate::{Error, Result};
 
 /// Which ray–triangle test runs in the leaves.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Intersector {
     /// Kensler & Shirley (RT06): the fastest, and the baseline of every culling figure. Rays
     /// through an edge shared by two triangles may, rarely, miss both.

@@ -21,7 +21,7 @@ pub(crate) trait LeafVisitor {
 /// Can this ray be traced? Finite origin and direction, a non-zero direction and
 /// `tmin <= tmax` (`tmax` may be `+inf`). Every other ray reports a miss on every path.
 #[inline(always)]
-pub(crate) fn is_traceable(ray: &Ray) -> bool {
+pub fn is_traceable(ray: &Ray) -> bool {
     ray.origin.is_finite()
         && ray.dir.is_finite()
         && ray.dir != Vec3::ZERO

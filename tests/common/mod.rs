@@ -4,9 +4,11 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use kdbeam::render::{random_rays, Camera};
-use kdbeam::scene::{self, procedural, rng::Rng};
+use kdbeam::rays::{random_rays, Camera};
+use kdbeam::scene::{procedural, rng::Rng};
 use kdbeam::{Mesh, Ray, Vec3};
+
+pub mod scenes;
 
 /// Small procedural scenes (every generator) and, when present, the shared real meshes.
 /// Prints a clear line when the shared scenes are skipped.
@@ -33,18 +35,13 @@ pub fn scenes(real: bool) -> Vec<(String, Mesh)> {
     out
 }
 
-/// The shared real meshes, or none (with a message saying why).
+/// The shared real meshes that are present (each missing one is skipped with a message saying
+/// why).
 pub fn real_scenes() -> Vec<(String, Mesh)> {
-    let mut out = Vec::new();
-    for name in ["killeroo", "bunny", "sponza", "dragon"] {
-        match scene::shared_scene(name) {
-            Some(path) => out.push((name.to_string(), scene::load_obj(&path).expect("shared scene loads"))),
-            None => eprintln!(
-                "skipped: shared scene {name} not found (set KDBEAM_SCENES to the folder of ../shared/scenes)"
-            ),
-        }
-    }
-    out
+    ["killeroo", "bunny", "sponza", "dragon"]
+        .into_iter()
+        .filter_map(|name| Some((name.to_string(), scenes::load_shared(name)?)))
+        .collect()
 }
 
 /// Rays that stress a traversal: mixed direction signs, zero direction components, origins on

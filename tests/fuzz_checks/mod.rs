@@ -92,7 +92,7 @@ pub fn obj_loader(data: &[u8]) {
         let again = Mesh::from_faces(mesh.positions().to_vec(), mesh.faces().to_vec());
         assert_eq!(again.as_ref().ok(), Some(&mesh), "a loaded mesh is valid");
         let tree = KdTree::build(&mesh, &BuildParams::default()).expect("a valid mesh builds");
-        let rays = kdbeam::render::random_rays(&mesh.bounds(), 16, data.len() as u64);
+        let rays = kdbeam::rays::random_rays(&mesh.bounds(), 16, data.len() as u64);
         packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
     }
 }

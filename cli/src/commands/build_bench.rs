@@ -1,0 +1,216 @@
+//! `kdbeam build-bench`: kd-tree build time against Embree's BVH build, and build + one frame.
+//!
+//! For moving geometry the structure is rebuilt every frame, so the cost that matters is the
+//! build plus one frame of primary rays. Each kd-tree row is one `ci_over_ct`; each Embree row
+//! one build quality.
+
+use std::time::Instant;
+
+use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Tracer};
+use kdbeam_cli::render::RaySet;
+use kdbeam_cli::{Error, Result};
+
+use super::bench::{measure, median_seconds, print_json_or, scene_names, RaysOf};
+use super::{load_scene, packet_shape, thread_pool};
+
+#[derive(clap::Args)]
+pub(crate) struct BuildBenchArgs {
+    /// Scenes: paths, shared scene names or builtin:NAME (default builtin:default).
+    scenes: Vec<String>,
+    /// SAH cost ratios of the kd-trees, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "0.3,1,3,10")]
+    ci_over_ct: Vec<f32>,
+    /// The build-quality thresholds to compare ([`BuildParams::exact_search_max`]), comma
+    /// separated: nodes of at most this many triangles choose their split exactly.
+    #[arg(long, value_delimiter = ',', default_value = "64")]
+    exact_search_max: Vec<u32>,
+    /// Image size of the frame, WIDTHxHEIGHT (the standard camera's primary rays).
+    #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
+    size: (u32, u32),
+    /// kdbeam's packet size for the frame (4, 8, 16 or 64), on the widest ISA.
+    #[arg(long, default_value_t = 64)]
+    packet: usize,
+    /// Embree's packet width for the frame (1, 4, 8 or 16); Embree rows need a build with
+    /// `--features embree`.
+    #[arg(long, default_value_t = 16)]
+    embree_width: usize,
+    /// Worker threads, for the builds (kd-tree and Embree) and the frame.
+    #[arg(long, default_value_t = 1)]
+    threads: usize,
+    /// Timed repetitions of each build and frame (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    reps: usize,
+    /// One JSON object per line instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(serde::Serialize)]
+struct Row {
+    scene: String,
+    triangles: usize,
+    /// `kdtree` or `embree`.
+    structure: &'static str,
+    /// `ci=… exact≤…` or `quality=…`.
+    setting: String,
+    threads: usize,
+    build_ms: f64,
+    /// Mesh triangles built per second, in millions.
+    build_mtris_per_s: f64,
+    /// The kd-tree rebuilt into the previous tree with one [`KdTreeBuilder`] (moving
+    /// geometry); none for Embree.
+    rebuild_ms: Option<f64>,
+    /// The kd-tree's SAH cost ([`KdTree::sah_cost`]); none for Embree.
+    sah_cost: Option<f64>,
+    frame_ms: f64,
+    build_plus_frame_ms: f64,
+}
+
+pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
+    if ![1, 4, 8, 16].contains(&args.embree_width) {
+        return Err(Error::invalid(
+            "embree-width",
+            format!("must be 1, 4, 8 or 16, got {}", args.embree_width),
+        ));
+    }
+    let pool = thread_pool(Some(args.threads))?;
+    let shape = packet_shape(args.packet)?;
+    let scenes = scene_names(&args.scenes);
+    if !args.json {
+        println!(
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>11} {:>9} {:>11} {:>13}",
+            "scene",
+            "triangles",
+            "struct",
+            "setting",
+            "threads",
+            "build ms",
+            "M tri/s",
+            "rebuild ms",
+            "SAH cost",
+            "frame ms",
+            "build+frame"
+        );
+    }
+    for scene in scenes {
+        let (name, mesh) = load_scene(scene)?;
+        let rays = RaysOf::of(RaySet::Primary, &mesh.bounds(), args.size);
+        let packets = rays.kdbeam_layout(shape.ray_count())?;
+        let row =
+            |structure, setting, build: f64, rebuild: Option<f64>, sah_cost, frame: f64| Row {
+                scene: name.clone(),
+                triangles: mesh.triangle_count(),
+                structure,
+                setting,
+                threads: args.threads,
+                build_ms: 1e3 * build,
+                build_mtris_per_s: mesh.triangle_count() as f64 / build / 1e6,
+                rebuild_ms: rebuild.map(|s| 1e3 * s),
+                sah_cost,
+                frame_ms: 1e3 * frame,
+                build_plus_frame_ms: 1e3 * (build + frame),
+            };
+        let settings = args.ci_over_ct.iter().flat_map(|&ci_over_ct| {
+            args.exact_search_max
+                .iter()
+                .map(move |&exact_search_max| (ci_over_ct, exact_search_max))
+        });
+        for (ci_over_ct, exact_search_max) in settings {
+            let params = BuildParams {
+                ci_over_ct,
+                exact_search_max,
+                ..BuildParams::default()
+            };
+            params.validate()?;
+            let (build, rebuild, sah_cost, frame) =
+                pool.install(|| -> Result<(f64, f64, f64, f64)> {
+                    let build = median_seconds(args.reps, || {
+                        let start = Instant::now();
+                        let tree = KdTree::build(&mesh, &params)?;
+                        let seconds = start.elapsed().as_secs_f64();
+                        // Freeing the tree (its pages back to the system) is not the build's
+                        // time, as Embree's scene is freed after its build time is taken.
+                        drop(tree);
+                        Ok(seconds)
+                    })?;
+                    let mut builder = KdTreeBuilder::new();
+                    let mut tree = builder.build(&mesh, &params)?;
+                    let rebuild = median_seconds(args.reps, || {
+                        let start = Instant::now();
+                        builder.rebuild(&mut tree, &mesh, &params)?;
+                        Ok(start.elapsed().as_secs_f64())
+                    })?;
+                    let tracer = Tracer::new(&tree).with_packet(shape);
+                    let (frame, _) = measure(args.reps, &tracer, &packets);
+                    Ok((build, rebuild, tree.sah_cost(ci_over_ct), frame))
+                })?;
+            print_row(
+                &row(
+                    "kdtree",
+                    format!("ci={ci_over_ct} exact≤{exact_search_max}"),
+                    build,
+                    Some(rebuild),
+                    Some(sah_cost),
+                    frame,
+                ),
+                args.json,
+            );
+        }
+        #[cfg(feature = "embree")]
+        {
+            use kdbeam_cli::embree::{BuildQuality, Context, EmbreeOptions, EmbreeScene};
+            let embree_rays = rays.embree_layout(args.embree_width)?;
+            for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
+                let options = EmbreeOptions {
+                    quality,
+                    ..EmbreeOptions::default()
+                };
+                let (build, frame) = pool.install(|| -> Result<(f64, f64)> {
+                    let build = median_seconds(args.reps, || {
+                        Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
+                    })?;
+                    let scene = EmbreeScene::with_options(&mesh, &options)?;
+                    // Camera packets: the coherent context, as in `kdbeam bench`.
+                    let frame = super::bench::embree_seconds(
+                        args.reps,
+                        &scene,
+                        &embree_rays,
+                        Context::Coherent,
+                    );
+                    Ok((build, frame))
+                })?;
+                print_row(
+                    &row(
+                        "embree",
+                        format!("quality={}", quality.name()),
+                        build,
+                        None,
+                        None,
+                        frame,
+                    ),
+                    args.json,
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn print_row(r: &Row, json: bool) {
+    print_json_or(r, json, || {
+        format!(
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>11} {:>9} {:>11.1} {:>13.1}",
+            r.scene,
+            r.triangles,
+            r.structure,
+            r.setting,
+            r.threads,
+            r.build_ms,
+            r.build_mtris_per_s,
+            r.rebuild_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
+            r.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
+            r.frame_ms,
+            r.build_plus_frame_ms
+        )
+    })
+}

@@ -1,0 +1,124 @@
+//! The commands of the `kdbeam` tool, and what they share: the tree options, scene loading,
+//! thread pools and progress display.
+
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressStyle};
+use kdbeam::scene::{self, procedural};
+use kdbeam::trace::Intersector;
+use kdbeam::{BuildParams, KdTree, Mesh, PacketShape};
+use kdbeam_cli::scenes::shared_scene;
+use kdbeam_cli::{Error, Result};
+
+pub(crate) mod accuracy;
+pub(crate) mod bench;
+pub(crate) mod build_bench;
+pub(crate) mod figures;
+pub(crate) mod render;
+pub(crate) mod sweep;
+pub(crate) mod synthetic;
+
+/// Options shared by every command that builds a tree and traces.
+#[derive(clap::Args, Clone)]
+pub(crate) struct TreeArgs {
+    /// Ray–triangle test: kensler_shirley or watertight.
+    #[arg(long, default_value = "kensler_shirley")]
+    intersector: Intersector,
+    /// SAH cost ratio of a ray–triangle test to a traversal step.
+    #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
+    ci_over_ct: f32,
+    /// SAH discount for splits with an empty side, in [0, 1).
+    #[arg(long, default_value_t = BuildParams::default().empty_bonus)]
+    empty_bonus: f32,
+    /// Nodes of at most this many triangles choose their split exactly, larger ones by
+    /// binning: lower builds faster, with slightly costlier trees.
+    #[arg(long, default_value_t = BuildParams::default().exact_search_max)]
+    exact_search_max: u32,
+}
+
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("{v:?} is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+/// Loads `name`: `builtin:NAME`, a shared scene's short name, or a path.
+fn load_scene(name: Option<&str>) -> Result<(String, Mesh)> {
+    let name = name.unwrap_or("builtin:default");
+    let mesh = if let Some(builtin) = name.strip_prefix("builtin:") {
+        procedural::builtin(builtin)?
+    } else if let Some(path) = shared_scene(name) {
+        scene::load_obj(path)?
+    } else {
+        scene::load_obj(name)?
+    };
+    Ok((name.to_string(), mesh))
+}
+
+/// Runs `f`, showing a spinner with `message` if it takes longer than a second.
+fn with_spinner<T>(message: &str, f: impl FnOnce() -> T) -> T {
+    let bar = ProgressBar::hidden();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("static template"),
+    );
+    bar.set_message(message.to_string());
+    let shown = bar.clone();
+    let (tx, rx) = std::sync::mpsc::channel::<()>();
+    let watcher = std::thread::spawn(move || {
+        if rx.recv_timeout(Duration::from_secs(1)).is_err() {
+            shown.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            shown.enable_steady_tick(Duration::from_millis(100));
+        }
+    });
+    let out = f();
+    drop(tx);
+    let _ = watcher.join();
+    bar.finish_and_clear();
+    out
+}
+
+/// A progress bar over `len` steps, drawn only once a second has passed.
+fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
+    let bar = ProgressBar::with_draw_target(Some(len), indicatif::ProgressDrawTarget::hidden());
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} {elapsed}")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(message.to_string());
+    (bar, Instant::now())
+}
+
+fn build_tree(mesh: &Mesh, args: &TreeArgs) -> Result<KdTree> {
+    let params = BuildParams {
+        ci_over_ct: args.ci_over_ct,
+        empty_bonus: args.empty_bonus,
+        exact_search_max: args.exact_search_max,
+        ..BuildParams::default()
+    };
+    Ok(with_spinner("building kd-tree", || {
+        KdTree::build(mesh, &params)
+    })?)
+}
+
+fn packet_shape(rays: usize) -> Result<PacketShape> {
+    PacketShape::from_len(rays)
+        .ok_or_else(|| Error::invalid("packet", format!("must be 4, 8, 16 or 64, got {rays}")))
+}
+
+fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut b = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(Error::invalid("threads", "must be at least 1"));
+        }
+        b = b.num_threads(n);
+    }
+    b.build()
+        .map_err(|e| Error::invalid("threads", e.to_string()))
+}

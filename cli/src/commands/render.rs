@@ -1,0 +1,133 @@
+//! `kdbeam render`: one frame of the standard camera to a PNG, with build and trace statistics.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use kdbeam::trace::Culling;
+use kdbeam::{Camera, Isa, KdTree, Tracer};
+use kdbeam_cli::render;
+use kdbeam_cli::Result;
+
+use super::{
+    build_tree, delayed_bar, load_scene, packet_shape, parse_size, thread_pool, with_spinner,
+    TreeArgs,
+};
+
+#[derive(clap::Args)]
+pub(crate) struct RenderArgs {
+    /// A path to an .obj or .obj.gz, a shared scene (bunny, sponza, dragon, killeroo) or
+    /// builtin:NAME (default builtin:default).
+    scene: Option<String>,
+    /// Where to write the picture.
+    #[arg(long, default_value = "kdbeam.png")]
+    out: PathBuf,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Also draw heat maps of ray–triangle tests per pixel next to the picture: without
+    /// culling, then with the chosen culling, on one log scale.
+    #[arg(long)]
+    heatmap: bool,
+    /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
+    /// KDBEAM_ISA).
+    #[arg(long)]
+    isa: Option<Isa>,
+    /// Packet size in rays: 4, 8, 16 or 64.
+    #[arg(long, default_value_t = 64)]
+    packet: usize,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Culling in the leaves: none, 4plane, 6plane or auto, `+aperture` to add the corner-ray
+    /// test, then options after `/`: masked, maskless, adaptive, packet (whole-packet
+    /// traversal), distance-first, aperture-first; e.g. `6plane+aperture/masked/distance-first`.
+    #[arg(long, default_value = "auto")]
+    culling: Culling,
+    #[command(flatten)]
+    tree: TreeArgs,
+}
+
+fn tracer<'t>(tree: &'t KdTree, args: &RenderArgs) -> Result<Tracer<'t>> {
+    let t = Tracer::new(tree)
+        .with_intersector(args.tree.intersector)
+        .with_packet(packet_shape(args.packet)?)
+        .with_culling(args.culling);
+    match args.isa {
+        Some(isa) => Ok(t.with_isa(isa)?),
+        None => Ok(t),
+    }
+}
+
+pub(crate) fn run(args: RenderArgs) -> Result<()> {
+    kdbeam::kernels::Dispatch::from_env()?;
+    let pool = thread_pool(args.threads)?;
+    pool.install(|| {
+        let (name, mesh) = with_spinner("loading scene", || load_scene(args.scene.as_deref()))?;
+        let tree = build_tree(&mesh, &args.tree)?;
+        let stats = tree.stats();
+        println!("scene      {name}: {} triangles", mesh.triangle_count());
+        let sah_cost = tree.sah_cost(args.tree.ci_over_ct);
+        println!("kd-tree    {stats}, SAH cost {sah_cost:.2}");
+        let tracer = tracer(&tree, &args)?;
+        let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
+        let (bar, start) = delayed_bar(u64::from(camera.height), "tracing");
+        let frame = render::trace_primary(&tracer, &camera, &|rows| {
+            if start.elapsed() > Duration::from_secs(1) && bar.is_hidden() {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+            }
+            bar.inc(rows);
+        });
+        bar.finish_and_clear();
+        let hit = frame.hits.iter().filter(|h| h.is_hit()).count();
+        println!(
+            "trace      {}x{} primary rays, {} isa, {} packets ({}, culling {}), {} threads: {:.2} Mrays/s, {:.1}% hit",
+            camera.width,
+            camera.height,
+            tracer.isa(),
+            tracer.packet().ray_count(),
+            tracer.intersector().name(),
+            tracer.culling(),
+            rayon::current_num_threads(),
+            frame.mrays_per_s(),
+            100.0 * hit as f64 / frame.rays().max(1) as f64,
+        );
+        let c = &frame.counters;
+        println!(
+            "work       {:.2} leaves/ray, {:.2} tests/ray of {:.2} potential: {:.1}% eliminated, \
+             {:.2} active rays per leaf visit, beams on {:.1}% of leaf visits; per packet {:.1} \
+             inner nodes, {:.2} non-empty leaves",
+            c.ray_leaf_visits as f64 / frame.rays().max(1) as f64,
+            frame.tests_per_ray(),
+            c.potential_tests as f64 / frame.rays().max(1) as f64,
+            c.eliminated_percent(),
+            c.ray_leaf_visits as f64 / c.leaf_visits.max(1) as f64,
+            100.0 * c.beams as f64 / c.leaf_visits.max(1) as f64,
+            c.inner_visits as f64 / c.packets.max(1) as f64,
+            c.leaf_visits as f64 / c.packets.max(1) as f64,
+        );
+        if cfg!(feature = "stats") {
+            let pct = |x: u64| 100.0 * x as f64 / c.potential_tests.max(1) as f64;
+            println!(
+                "culled     side planes {:.1}%, near/far {:.1}%, aperture {:.1}% of potential tests; \
+                 {:.1}% of leaf visits have one active ray",
+                pct(c.culled_planes),
+                pct(c.culled_distance),
+                pct(c.culled_aperture),
+                c.single_ray_visits_percent(),
+            );
+        }
+        let mut image = frame.shade(&mesh);
+        if args.heatmap {
+            // Tests per pixel without culling, then with this tracer's culling, on one scale.
+            let unculled = tracer.with_culling(Culling::NONE);
+            let reference = render::trace_primary(&unculled, &camera, &|_| {});
+            let max = reference.tests.iter().chain(&frame.tests).copied().max();
+            image = image
+                .beside(&render::heatmap(&reference, max))
+                .beside(&render::heatmap(&frame, max));
+        }
+        image.write_png(&args.out)?;
+        println!("wrote      {}", args.out.display());
+        Ok(())
+    })
+}

@@ -1,0 +1,261 @@
+//! Uploading a mesh to Embree: device, scene, one triangle geometry, BVH build.
+
+use std::ffi::CString;
+use std::ptr;
+use std::time::Instant;
+
+use embree::sys;
+
+use kdbeam::Mesh;
+
+use crate::{Error, Result};
+
+/// Embree's BVH build quality (`RTC_BUILD_QUALITY_*`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BuildQuality {
+    /// Morton-code build: fastest to build, slowest to trace; Embree's choice for dynamic scenes.
+    Low,
+    /// Binned SAH: Embree's default.
+    #[default]
+    Medium,
+    /// Binned SAH with spatial splits: slowest to build, fastest to trace.
+    High,
+}
+
+impl BuildQuality {
+    /// `low`, `medium` or `high`.
+    pub fn name(self) -> &'static str {
+        match self {
+            BuildQuality::Low => "low",
+            BuildQuality::Medium => "medium",
+            BuildQuality::High => "high",
+        }
+    }
+
+    fn to_sys(self) -> sys::RTCBuildQuality {
+        match self {
+            BuildQuality::Low => sys::RTCBuildQuality::LOW,
+            BuildQuality::Medium => sys::RTCBuildQuality::MEDIUM,
+            BuildQuality::High => sys::RTCBuildQuality::HIGH,
+        }
+    }
+}
+
+/// How Embree builds and traces a scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct EmbreeOptions {
+    /// BVH build quality.
+    pub quality: BuildQuality,
+    /// `RTC_SCENE_FLAG_ROBUST`: traversal and intersection avoid optimisations that lose
+    /// accuracy, so that rays do not slip between triangles sharing an edge (the counterpart of
+    /// kdbeam's watertight test).
+    pub robust: bool,
+}
+
+impl Default for EmbreeOptions {
+    /// Medium quality, robust.
+    fn default() -> Self {
+        EmbreeOptions {
+            quality: BuildQuality::Medium,
+            robust: true,
+        }
+    }
+}
+
+/// A mesh committed to Embree: one triangle geometry (geometry id 0) whose primitive ids are
+/// the mesh's triangle indices.
+///
+/// Tracing is thread-safe (Embree allows concurrent queries on a committed scene); the scene
+/// is immutable after [`EmbreeScene::new`].
+pub struct EmbreeScene {
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+    build_seconds: f64,
+    options: EmbreeOptions,
+}
+
+// SAFETY: the handles are owned by this value and released once, in `Drop`. Embree's device
+// and committed scenes are reference-counted objects whose query functions (rtcIntersect*) may
+// be called from any number of threads at once; nothing mutates the scene after `new`.
+unsafe impl Send for EmbreeScene {}
+// SAFETY: as for `Send`: the only operations through `&self` are concurrent-safe queries.
+unsafe impl Sync for EmbreeScene {}
+
+impl std::fmt::Debug for EmbreeScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EmbreeScene")
+            .field("options", &self.options)
+            .field("build_seconds", &self.build_seconds)
+            .finish_non_exhaustive()
+    }
+}
+
+impl EmbreeScene {
+    /// `mesh` built with [`EmbreeOptions::default`] (medium quality, robust).
+    ///
+    /// # Errors
+    /// As [`EmbreeScene::with_options`].
+    pub fn new(mesh: &Mesh) -> Result<Self> {
+        Self::with_options(mesh, &EmbreeOptions::default())
+    }
+
+    /// Uploads `mesh` to a new Embree device and builds its BVH.
+    ///
+    /// The device's build threads are the current rayon pool's thread count, so that Embree
+    /// builds on as many cores as kdbeam's kd-tree build.
+    /// [`EmbreeScene::build_seconds`] times everything from the new scene to the committed BVH,
+    /// vertex and index upload included; creating the device is not timed. An empty mesh gives
+    /// a scene without geometry, which every ray misses.
+    ///
+    /// # Errors
+    /// [`Error::Embree`] when Embree fails to create the device or reports an error while
+    /// building (out of memory, or a library without triangle support).
+    pub fn with_options(mesh: &Mesh, options: &EmbreeOptions) -> Result<Self> {
+        let config = CString::new(format!("threads={}", build_threads()))
+            .expect("a formatted number holds no NUL");
+        // SAFETY: `config` is a NUL-terminated string that outlives the call.
+        let device = unsafe { sys::rtcNewDevice(config.as_ptr()) };
+        if device.is_null() {
+            return Err(Error::Embree("rtcNewDevice failed".into()));
+        }
+        let mut out = EmbreeScene {
+            device,
+            scene: ptr::null_mut(),
+            build_seconds: 0.0,
+            options: *options,
+        };
+        let start = Instant::now();
+        // SAFETY: `device` is a live device handle owned by `out`.
+        out.scene = unsafe { sys::rtcNewScene(device) };
+        out.check("rtcNewScene")?;
+        if out.scene.is_null() {
+            return Err(Error::Embree("rtcNewScene failed".into()));
+        }
+        let flags = if options.robust {
+            sys::RTCSceneFlags::ROBUST
+        } else {
+            sys::RTCSceneFlags::NONE
+        };
+        // SAFETY: `out.scene` is a live, uncommitted scene handle.
+        unsafe {
+            sys::rtcSetSceneFlags(out.scene, flags);
+            sys::rtcSetSceneBuildQuality(out.scene, options.quality.to_sys());
+        }
+        if !mesh.is_empty() {
+            out.attach_triangles(mesh)?;
+        }
+        // SAFETY: `out.scene` is a live scene whose geometry is committed.
+        unsafe { sys::rtcCommitScene(out.scene) };
+        out.check("rtcCommitScene")?;
+        out.build_seconds = start.elapsed().as_secs_f64();
+        Ok(out)
+    }
+
+    /// Wall-clock seconds the upload and BVH build took.
+    pub fn build_seconds(&self) -> f64 {
+        self.build_seconds
+    }
+
+    /// The options the scene was built with.
+    pub fn options(&self) -> EmbreeOptions {
+        self.options
+    }
+
+    /// The committed scene handle, for the queries.
+    pub(super) fn handle(&self) -> sys::RTCScene {
+        self.scene
+    }
+
+    /// Creates a triangle geometry holding a copy of `mesh` and attaches it as geometry 0.
+    fn attach_triangles(&self, mesh: &Mesh) -> Result<()> {
+        let positions: &[f32] = bytemuck::cast_slice(mesh.positions());
+        let indices: &[u32] = bytemuck::cast_slice(mesh.faces());
+        // SAFETY: `self.device` is live; a failure returns null and is checked below.
+        let geometry = unsafe { sys::rtcNewGeometry(self.device, sys::RTCGeometryType::TRIANGLE) };
+        if geometry.is_null() {
+            self.check("rtcNewGeometry")?;
+            return Err(Error::Embree("rtcNewGeometry failed".into()));
+        }
+        let filled = self
+            .fill_buffer(
+                geometry,
+                sys::RTCBufferType::VERTEX,
+                sys::RTCFormat::FLOAT3,
+                positions,
+            )
+            .and_then(|()| {
+                self.fill_buffer(
+                    geometry,
+                    sys::RTCBufferType::INDEX,
+                    sys::RTCFormat::UINT3,
+                    indices,
+                )
+            });
+        if filled.is_ok() {
+            // SAFETY: `geometry` is a live geometry with both buffers set; `self.scene` is a
+            // live scene of the same device. Attaching takes a reference of its own.
+            unsafe {
+                sys::rtcSetGeometryBuildQuality(geometry, self.options.quality.to_sys());
+                sys::rtcCommitGeometry(geometry);
+                sys::rtcAttachGeometry(self.scene, geometry);
+            }
+        }
+        // SAFETY: drops this function's reference; the scene keeps its own when attached.
+        unsafe { sys::rtcReleaseGeometry(geometry) };
+        filled?;
+        self.check("attaching the triangles")
+    }
+
+    /// Has Embree allocate slot 0 of `kind` for `data.len() / 3` items of three 4-byte
+    /// components (`format`) and copies `data` into it.
+    fn fill_buffer<T: bytemuck::Pod>(
+        &self,
+        geometry: sys::RTCGeometry,
+        kind: sys::RTCBufferType,
+        format: sys::RTCFormat,
+        data: &[T],
+    ) -> Result<()> {
+        debug_assert_eq!(std::mem::size_of::<T>(), 4);
+        let items = data.len() / 3;
+        // SAFETY: `geometry` is a live triangle geometry; a stride of 12 bytes is the packed
+        // layout of FLOAT3 and UINT3. Embree returns null on failure (checked below).
+        let buffer = unsafe { sys::rtcSetNewGeometryBuffer(geometry, kind, 0, format, 12, items) };
+        if buffer.is_null() {
+            self.check("rtcSetNewGeometryBuffer")?;
+            return Err(Error::Embree("rtcSetNewGeometryBuffer failed".into()));
+        }
+        // SAFETY: Embree allocated `items · 12` bytes at `buffer` (plus padding), aligned to at
+        // least 16 bytes, for this geometry alone; nothing else reads or writes it until the
+        // geometry is committed, and `data` is a different allocation.
+        let dst = unsafe { std::slice::from_raw_parts_mut(buffer.cast::<T>(), 3 * items) };
+        dst.copy_from_slice(&data[..3 * items]);
+        Ok(())
+    }
+
+    /// [`Error::Embree`] naming `what` when the device has recorded an error.
+    fn check(&self, what: &str) -> Result<()> {
+        // SAFETY: `self.device` is a live device handle.
+        match unsafe { sys::rtcGetDeviceError(self.device) } {
+            sys::RTCError::NONE => Ok(()),
+            code => Err(Error::Embree(format!("{what}: {code:?}"))),
+        }
+    }
+}
+
+impl Drop for EmbreeScene {
+    fn drop(&mut self) {
+        // SAFETY: both handles are owned by `self` and released exactly once; a null scene
+        // (construction failed before it was made) is skipped.
+        unsafe {
+            if !self.scene.is_null() {
+                sys::rtcReleaseScene(self.scene);
+            }
+            sys::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+/// Threads Embree may build with: those of the current rayon pool.
+fn build_threads() -> usize {
+    rayon::current_num_threads()
+}

@@ -1,0 +1,75 @@
+//! The command line as a user runs it: the README's main job, and the bench table's columns
+//! when a run leaves a baseline out.
+
+use std::process::{Command, Output};
+
+#[path = "../../tests/common/mod.rs"]
+mod common;
+use common::TempFile;
+
+/// Runs the `kdbeam` binary with `args`, one worker thread, and returns its output, after
+/// checking that it succeeded.
+fn kdbeam(args: &[&str]) -> Output {
+    let out = Command::new(env!("CARGO_BIN_EXE_kdbeam"))
+        .args(args)
+        .args(["--threads", "1"])
+        .output()
+        .expect("the kdbeam binary runs");
+    assert!(
+        out.status.success(),
+        "kdbeam {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+#[test]
+fn render_writes_a_png_of_the_default_scene_and_prints_its_statistics() {
+    let png = TempFile::new("default.png");
+    let out = kdbeam(&[
+        "render",
+        "--size",
+        "64x48",
+        "--out",
+        png.path().to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for needle in ["kd-tree", "Mrays/s", "tests/ray", "eliminated"] {
+        assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}");
+    }
+    let bytes = std::fs::read(&png).expect("render wrote the PNG");
+    let decoder = png::Decoder::new(bytes.as_slice());
+    let info = decoder.read_info().expect("a valid PNG").info().clone();
+    assert_eq!((info.width, info.height), (64, 48));
+}
+
+#[test]
+fn bench_without_the_scalar_path_shows_no_speedup_over_it() {
+    let args = [
+        "bench",
+        "builtin:icosphere",
+        "--packet",
+        "8",
+        "--isa",
+        "portable",
+        "--culling",
+        "none",
+        "--size",
+        "16x16",
+        "--reps",
+        "1",
+    ];
+    let table = String::from_utf8_lossy(&kdbeam(&args).stdout).into_owned();
+    let row = table.lines().nth(1).expect("a row under the header");
+    assert!(!table.contains("NaN"), "{table}");
+    assert!(
+        row.ends_with(" -"),
+        "the speedup column is not '-': {row:?}"
+    );
+
+    let json =
+        String::from_utf8_lossy(&kdbeam(&[&args[..], &["--json"]].concat()).stdout).into_owned();
+    let row: serde_json::Value = serde_json::from_str(json.lines().next().unwrap()).unwrap();
+    assert!(row["speedup_vs_scalar"].is_null(), "{row}");
+    assert!(row["mrays_per_s"].as_f64().unwrap() > 0.0, "{row}");
+}

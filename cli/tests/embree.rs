@@ -1,0 +1,293 @@
+//! Embree against kdbeam's watertight scalar path, on the same rays (`--features embree`).
+#![cfg(feature = "embree")]
+
+#[path = "../../tests/common/mod.rs"]
+mod common;
+
+use kdbeam::kernels::intersect::watertight::WatertightRay;
+use kdbeam::rays::{random_rays, Camera};
+use kdbeam::{BuildParams, Hit, Intersector, KdTree, Mesh, Ray, Tracer, Triangle, Vec3};
+use kdbeam_cli::embree::{primary_rays, Context, EmbreeRays, EmbreeScene, QUERY_WIDTHS};
+
+/// Relative tolerance on `t` when both report the same triangle. Both compute `t` in `f32`
+/// from the same vertices (Embree's robust mode by a Plücker-style test, kdbeam by the sheared
+/// watertight test), which differ by a few ulps (~1e-7); 1e-4 leaves room for grazing hits,
+/// whose `t` is ill-conditioned, while still catching a wrong ray parameterisation. Hits closer
+/// than 1% of the scene's diagonal are measured against that distance instead: a random origin
+/// next to a surface makes `t` tiny, and an ulp of the hit point huge relative to it.
+const T_TOLERANCE: f32 = 1e-4;
+
+/// How far the tie test moves each vertex away from the centroid, in ulps of the largest
+/// coordinate of the triangle and the ray origin: far more than either test's rounding of the
+/// hit point, far less than any gap between triangles of the test scenes.
+const TIE_ULPS: f32 = 64.0;
+
+/// The share of rays on which both must agree (hit/miss, triangle, `t`; ties count as agreeing).
+const MIN_AGREEMENT: f64 = 0.999;
+
+/// How two hit lists compare.
+///
+/// A *tie* is a ray whose two reported triangles differ but both lie at the same `t`, the ray
+/// passing through (or within rounding of) an edge they share: kdbeam reports the smaller id,
+/// Embree either, and the two tests may put a ray within an ulp of the edge on different
+/// sides. It is detected by kdbeam's watertight test on Embree's triangle grown by
+/// [`TIE_ULPS`] about its centroid: a hit within [`T_TOLERANCE`] of kdbeam's `t`.
+/// Ties are reported, not counted as errors: either triangle is a correct answer.
+struct Agreement {
+    /// 1% of the scene's diagonal (see [`T_TOLERANCE`]).
+    near: f32,
+    rays: usize,
+    agree: usize,
+    ties: usize,
+    hit_vs_miss: usize,
+    other_triangle: usize,
+    t_outside_tolerance: usize,
+    max_t_error: f32,
+}
+
+impl Agreement {
+    fn new(mesh: &Mesh) -> Self {
+        Agreement {
+            near: 0.01 * mesh.bounds().extent().length(),
+            rays: 0,
+            agree: 0,
+            ties: 0,
+            hit_vs_miss: 0,
+            other_triangle: 0,
+            t_outside_tolerance: 0,
+            max_t_error: 0.0,
+        }
+    }
+
+    fn add(&mut self, mesh: &Mesh, ray: &Ray, embree: &Hit, kdbeam: &Hit) {
+        self.rays += 1;
+        let near = self.near / ray.dir.length();
+        let relative = |t: f32| (t - kdbeam.t).abs() / kdbeam.t.abs().max(near);
+        if embree.is_hit() != kdbeam.is_hit() {
+            self.hit_vs_miss += 1;
+        } else if embree.triangle != kdbeam.triangle {
+            let tri = grown(mesh.triangle(embree.triangle as usize), ray.origin);
+            match WatertightRay::new(ray).intersect(&tri, ray.tmin, ray.tmax) {
+                Some(h) if relative(h.t) <= T_TOLERANCE => self.ties += 1,
+                _ => self.other_triangle += 1,
+            }
+        } else if embree.is_hit() {
+            let err = relative(embree.t);
+            self.max_t_error = self.max_t_error.max(err);
+            if err <= T_TOLERANCE {
+                self.agree += 1;
+            } else {
+                self.t_outside_tolerance += 1;
+            }
+        } else {
+            self.agree += 1;
+        }
+    }
+
+    fn share(&self) -> f64 {
+        (self.agree + self.ties) as f64 / self.rays.max(1) as f64
+    }
+
+    fn check(&self, what: &str) {
+        println!(
+            "{what}: {}/{} agree ({:.4}%, {} of them ties), {} hit vs miss, {} other triangle, {} t outside {T_TOLERANCE:e}, max relative t error {:.2e}",
+            self.agree + self.ties,
+            self.rays,
+            100.0 * self.share(),
+            self.ties,
+            self.hit_vs_miss,
+            self.other_triangle,
+            self.t_outside_tolerance,
+            self.max_t_error,
+        );
+        assert!(
+            self.share() >= MIN_AGREEMENT,
+            "{what}: only {:.4}% of rays agree",
+            100.0 * self.share()
+        );
+    }
+}
+
+/// `tri` with each vertex moved [`TIE_ULPS`] ulps (of the largest coordinate of the vertices
+/// and `origin`) away from the centroid.
+fn grown(tri: Triangle, origin: Vec3) -> Triangle {
+    let c = (tri.v0 + tri.v1 + tri.v2) / 3.0;
+    let scale = [tri.v0, tri.v1, tri.v2, origin]
+        .iter()
+        .map(|v| v.abs().max_element())
+        .fold(0.0, f32::max);
+    let step = TIE_ULPS * f32::EPSILON * scale;
+    let grow = |v: Vec3| v + (v - c).normalize_or_zero() * step;
+    Triangle {
+        v0: grow(tri.v0),
+        v1: grow(tri.v1),
+        v2: grow(tri.v2),
+    }
+}
+
+/// The built-in scenes and the bunny (when the shared scenes are present).
+fn scenes() -> Vec<(String, Mesh)> {
+    let mut scenes = common::scenes(false);
+    scenes.extend(common::scenes::load_shared("bunny").map(|mesh| ("bunny".to_string(), mesh)));
+    scenes
+}
+
+fn watertight(tree: &KdTree) -> Tracer<'_> {
+    Tracer::new(tree).with_intersector(Intersector::Watertight)
+}
+
+fn embree_hits(scene: &EmbreeScene, rays: &[Ray], width: usize, context: Context) -> Vec<Hit> {
+    let mut hits = vec![Hit::NONE; rays.len()];
+    scene
+        .intersect_stream(rays, width, context, &mut hits)
+        .expect("a valid width and matching lengths");
+    hits
+}
+
+#[test]
+fn primary_rays_agree_with_the_watertight_scalar_path() {
+    for (name, mesh) in scenes() {
+        let tree = KdTree::build(&mesh, &BuildParams::default()).expect("tree builds");
+        let tracer = watertight(&tree);
+        let scene = EmbreeScene::new(&mesh).expect("embree builds");
+        let camera = Camera::standard(&tree.bounds(), 512, 512);
+        let reference: Vec<Hit> = camera.rays().iter().map(|r| tracer.intersect(r)).collect();
+        for width in QUERY_WIDTHS {
+            let (rays, pixels) = primary_rays(&camera, width).expect("a valid width");
+            for context in Context::ALL {
+                let hits = embree_hits(&scene, &rays, width, context);
+                let mut agreement = Agreement::new(&mesh);
+                for ((hit, ray), &pixel) in hits.iter().zip(&rays).zip(&pixels) {
+                    agreement.add(&mesh, ray, hit, &reference[pixel as usize]);
+                }
+                let context = context.name();
+                agreement.check(&format!(
+                    "{name} primary 512x512 rtcIntersect{width} {context}"
+                ));
+            }
+        }
+    }
+}
+
+#[test]
+fn random_rays_agree_with_the_watertight_scalar_path() {
+    // 4099 rays: the last packet of every width is partly filled. Flat scenes (the grid) are
+    // left out: every random origin lies on their surface, where a hit at t = 0 is kdbeam's
+    // (tmin inclusive) but not reliably Embree's.
+    for (name, mesh) in common::scenes(false) {
+        if mesh.bounds().extent().min_element() == 0.0 {
+            continue;
+        }
+        let tree = KdTree::build(&mesh, &BuildParams::default()).expect("tree builds");
+        let tracer = watertight(&tree);
+        let scene = EmbreeScene::new(&mesh).expect("embree builds");
+        let rays = random_rays(&tree.bounds(), 4099, 7);
+        let reference: Vec<Hit> = rays.iter().map(|r| tracer.intersect(r)).collect();
+        for width in QUERY_WIDTHS {
+            for context in Context::ALL {
+                let hits = embree_hits(&scene, &rays, width, context);
+                let mut agreement = Agreement::new(&mesh);
+                for ((hit, ray), kdbeam) in hits.iter().zip(&rays).zip(&reference) {
+                    agreement.add(&mesh, ray, hit, kdbeam);
+                }
+                let context = context.name();
+                agreement.check(&format!("{name} random rtcIntersect{width} {context}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn untraceable_rays_are_inactive_lanes_and_disturb_no_other_lane() {
+    let mesh = Mesh::from_indexed(
+        &[[-1.0, -1.0, 1.0], [1.0, -1.0, 1.0], [0.0, 1.0, 1.0]],
+        &[0, 1, 2],
+    )
+    .expect("one triangle");
+    let scene = EmbreeScene::new(&mesh).expect("embree builds");
+    let good = Ray::new(Vec3::ZERO, Vec3::Z);
+    let with = |f: fn(&mut Ray)| {
+        let mut r = good;
+        f(&mut r);
+        r
+    };
+    let bad = [
+        with(|r| r.origin.x = f32::NAN),
+        with(|r| r.dir = Vec3::ZERO),
+        with(|r| r.dir.y = f32::INFINITY),
+        with(|r| r.tmin = 2.0 * r.tmax.min(1.0)),
+        with(|r| r.tmax = f32::NAN),
+        with(|r| r.tmin = -1.0),
+    ];
+    // Bad rays fill every lane but one, at each position of a 16-ray packet.
+    for good_lane in 0..16 {
+        let rays: Vec<Ray> = (0..16)
+            .map(|i| {
+                if i == good_lane {
+                    good
+                } else {
+                    bad[i % bad.len()]
+                }
+            })
+            .collect();
+        for width in QUERY_WIDTHS {
+            let hits = embree_hits(&scene, &rays, width, Context::Coherent);
+            for (i, hit) in hits.iter().enumerate() {
+                if i == good_lane {
+                    assert_eq!(hit.triangle, 0, "width {width}: the good ray hits");
+                    assert_eq!(hit.t, 1.0, "width {width}: at z = 1, exactly");
+                } else {
+                    assert_eq!(*hit, Hit::NONE, "width {width}: lane {i} ({:?})", rays[i]);
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn bad_widths_and_lengths_are_errors() {
+    let mesh = kdbeam::scene::procedural::builtin("icosphere:1").expect("built-in scene");
+    let scene = EmbreeScene::new(&mesh).expect("embree builds");
+    let rays = [Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z); 3];
+    let mut hits = [Hit::NONE; 3];
+    let context = Context::Incoherent;
+    for width in [0, 2, 3, 32, 64] {
+        assert!(scene
+            .intersect_stream(&rays, width, context, &mut hits)
+            .is_err());
+        assert!(EmbreeRays::new(&rays, width).is_err());
+    }
+    assert!(scene
+        .intersect_stream(&rays, 4, context, &mut hits[..2])
+        .is_err());
+    let layout = EmbreeRays::new(&rays, 4).expect("a valid width");
+    assert!(layout.hits(&mut hits[..2]).is_err());
+    scene
+        .intersect_stream(&rays, 4, context, &mut hits)
+        .expect("valid input");
+    assert!(hits.iter().all(Hit::is_hit));
+}
+
+/// The benchmark's way of tracing, a fresh copy of rays converted once, gives the hits of a
+/// single call; before tracing, every ray reads as a miss.
+#[test]
+fn copies_of_converted_rays_trace_as_one_call_does() {
+    let mesh = kdbeam::scene::procedural::builtin("icosphere").expect("built-in scene");
+    let scene = EmbreeScene::new(&mesh).expect("embree builds");
+    let rays = random_rays(&mesh.bounds(), 1000, 3);
+    for width in QUERY_WIDTHS {
+        let want = embree_hits(&scene, &rays, width, Context::Incoherent);
+        assert!(want.iter().any(Hit::is_hit), "width {width}: some ray hits");
+        let untraced = EmbreeRays::new(&rays, width).expect("a valid width");
+        let mut hits = vec![Hit::NONE; rays.len()];
+        untraced.hits(&mut hits).expect("matching lengths");
+        assert!(hits.iter().all(|h| !h.is_hit()), "width {width}: untraced");
+        let mut work = untraced.clone();
+        for _ in 0..2 {
+            work.clone_from(&untraced);
+            scene.trace(&mut work, Context::Incoherent);
+            work.hits(&mut hits).expect("matching lengths");
+            assert_eq!(hits, want, "width {width}");
+        }
+    }
+}
