@@ -85,7 +85,8 @@ impl LinePlot {
         let y1 = all.iter().fold(0.0f64, |a, p| a.max(p.1)) * 1.08;
         let y1 = if y1 > 0.0 { y1 } else { 1.0 };
         if self.log_x {
-            self.draw_on(root, (x0..x1).log_scale(), y1)
+            let ticks = log_ticks(x0, x1);
+            self.draw_on(root, (x0..x1).log_scale().with_key_points(ticks), y1)
         } else {
             self.draw_on(root, x0..x1, y1)
         }
@@ -134,7 +135,7 @@ impl LinePlot {
         if !self.series.is_empty() {
             chart
                 .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
+                .position(SeriesLabelPosition::MiddleRight)
                 .background_style(WHITE.mix(0.85))
                 .border_style(BLACK.mix(0.4))
                 .label_font(("sans-serif", 13))
@@ -142,6 +143,24 @@ impl LinePlot {
         }
         root.present()
     }
+}
+
+/// Ticks of a logarithmic axis over `[x0, x1]`: 1, 2 and 5 times each power of ten in it
+/// (plotters' own log axis labels only the powers of ten, which leaves a sweep from 0.03 to 3
+/// with two labels).
+fn log_ticks(x0: f64, x1: f64) -> Vec<f64> {
+    let mut ticks = Vec::new();
+    let mut decade = 10f64.powf(x0.log10().floor());
+    while decade <= x1 {
+        for m in [1.0, 2.0, 5.0] {
+            let t = decade * m;
+            if (x0..=x1).contains(&t) {
+                ticks.push(t);
+            }
+        }
+        decade *= 10.0;
+    }
+    ticks
 }
 
 /// A tick label: at most six significant decimals, no trailing zeros (`2`, `0.25`, `1.5`).
@@ -200,6 +219,13 @@ mod tests {
             assert!(svg.contains(&format!("\n{text}\n")), "no {text:?} in {svg}");
         }
         assert!(!svg.contains("NaN"));
+    }
+
+    #[test]
+    fn log_ticks_are_one_two_five_per_decade_inside_the_range() {
+        let ticks: Vec<String> = log_ticks(0.03, 3.0).into_iter().map(format_tick).collect();
+        assert_eq!(ticks, ["0.05", "0.1", "0.2", "0.5", "1", "2"]);
+        assert_eq!(log_ticks(1.0, 1.0), [1.0]);
     }
 
     #[test]
