@@ -62,7 +62,7 @@ impl PacketShape {
     }
 }
 
-/// Up to 64 rays in structure-of-arrays layout: `org[axis][ray]`, `dir[axis][ray]`.
+/// Up to 64 rays in structure-of-arrays layout: `origin[axis][ray]`, `direction[axis][ray]`.
 ///
 /// Lanes past [`RayPacket::len`] hold zeros and are never traced. Every array is 64-byte
 /// aligned so that a group of 4 or 8 lanes is one aligned load.
@@ -70,9 +70,9 @@ impl PacketShape {
 #[derive(Clone, Debug, PartialEq)]
 pub struct RayPacket {
     /// Origins, by axis then ray.
-    pub org: [[f32; MAX_PACKET_RAYS]; 3],
+    pub origin: [[f32; MAX_PACKET_RAYS]; 3],
     /// Directions, by axis then ray.
-    pub dir: [[f32; MAX_PACKET_RAYS]; 3],
+    pub direction: [[f32; MAX_PACKET_RAYS]; 3],
     /// Smallest accepted `t` per ray.
     pub tmin: [f32; MAX_PACKET_RAYS],
     /// Largest accepted `t` per ray.
@@ -88,8 +88,8 @@ impl RayPacket {
             "a packet holds at most 64 rays"
         );
         let mut p = RayPacket {
-            org: [[0.0; MAX_PACKET_RAYS]; 3],
-            dir: [[0.0; MAX_PACKET_RAYS]; 3],
+            origin: [[0.0; MAX_PACKET_RAYS]; 3],
+            direction: [[0.0; MAX_PACKET_RAYS]; 3],
             tmin: [0.0; MAX_PACKET_RAYS],
             tmax: [0.0; MAX_PACKET_RAYS],
             len: rays.len(),
@@ -108,8 +108,8 @@ impl RayPacket {
     pub fn set_len(&mut self, len: usize) {
         assert!(len <= MAX_PACKET_RAYS, "a packet holds at most 64 rays");
         for a in 0..3 {
-            self.org[a][len..].fill(0.0);
-            self.dir[a][len..].fill(0.0);
+            self.origin[a][len..].fill(0.0);
+            self.direction[a][len..].fill(0.0);
         }
         self.tmin[len..].fill(0.0);
         self.tmax[len..].fill(0.0);
@@ -143,8 +143,13 @@ impl RayPacket {
     pub fn ray(&self, i: usize) -> Ray {
         assert!(i < self.len);
         Ray {
-            origin: [self.org[0][i], self.org[1][i], self.org[2][i]].into(),
-            dir: [self.dir[0][i], self.dir[1][i], self.dir[2][i]].into(),
+            origin: [self.origin[0][i], self.origin[1][i], self.origin[2][i]].into(),
+            direction: [
+                self.direction[0][i],
+                self.direction[1][i],
+                self.direction[2][i],
+            ]
+            .into(),
             tmin: self.tmin[i],
             tmax: self.tmax[i],
         }
@@ -155,8 +160,8 @@ impl RayPacket {
     pub fn set(&mut self, i: usize, r: &Ray) {
         assert!(i < self.len);
         for a in 0..3 {
-            self.org[a][i] = r.origin[a];
-            self.dir[a][i] = r.dir[a];
+            self.origin[a][i] = r.origin[a];
+            self.direction[a][i] = r.direction[a];
         }
         self.tmin[i] = r.tmin;
         self.tmax[i] = r.tmax;

@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 
-/// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
+/// A ray `origin + t * direction` for `t` in `[tmin, tmax]`.
 ///
-/// `dir` need not be normalised; `t` is measured in units of `|dir|`. A zero or NaN direction, or
+/// `direction` need not be normalised; `t` is measured in units of `|direction|`. A zero or NaN direction, or
 /// a NaN origin, gives no hit (every test compares ordered, so NaN fails them), never a panic.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -12,7 +12,7 @@ pub struct Ray {
     /// Where the ray starts.
     pub origin: Vec3,
     /// Where it goes (any length).
-    pub dir: Vec3,
+    pub direction: Vec3,
     /// Smallest accepted `t`.
     pub tmin: f32,
     /// Largest accepted `t`.
@@ -22,10 +22,10 @@ pub struct Ray {
 impl Ray {
     /// A ray over `[0, +inf)`.
     #[inline]
-    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+    pub fn new(origin: Vec3, direction: Vec3) -> Self {
         Ray {
             origin,
-            dir,
+            direction,
             tmin: 0.0,
             tmax: f32::INFINITY,
         }
@@ -34,7 +34,7 @@ impl Ray {
     /// The point at parameter `t`.
     #[inline]
     pub fn at(&self, t: f32) -> Vec3 {
-        self.origin + self.dir * t
+        self.origin + self.direction * t
     }
 }
 
