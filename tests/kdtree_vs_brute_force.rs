@@ -48,14 +48,7 @@ fn check_scene(name: &str, mesh: &Mesh) {
         "{name}: no ray hits anything: the test would prove nothing"
     );
     for ci in [0.1, 1.0, 10.0] {
-        let tree = KdTree::build(
-            mesh,
-            &BuildParams {
-                ci_over_ct: ci,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let tree = KdTree::build(mesh, &BuildParams::default().with_ci_over_ct(ci)).unwrap();
         let structural: Vec<usize> = rays
             .par_iter()
             .zip(&truth)

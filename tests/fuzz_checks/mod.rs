@@ -151,12 +151,10 @@ fn decode_scene(data: &[u8]) -> (Mesh, BuildParams, Vec<Ray>, u64) {
         .collect();
     let mesh = Mesh::from_indexed(&positions, &indices).expect("lattice coordinates are finite");
     let p = b.u8();
-    let params = BuildParams {
-        ci_over_ct: [0.1, 1.0, 1.5, 10.0][usize::from(p & 3)],
-        leaf_size: u32::from(p >> 2 & 3) + 1,
-        max_depth: (p & 0x80 != 0).then_some(u32::from(p >> 4 & 7)),
-        ..BuildParams::default()
-    };
+    let params = BuildParams::default()
+        .with_ci_over_ct([0.1, 1.0, 1.5, 10.0][usize::from(p & 3)])
+        .with_leaf_size(u32::from(p >> 2 & 3) + 1)
+        .with_max_depth((p & 0x80 != 0).then_some(u32::from(p >> 4 & 7)));
     let active = b.u64();
     let mut rays = Vec::new();
     while !b.is_empty() && rays.len() < 200 {
