@@ -28,6 +28,7 @@ impl PacketShape {
     ];
 
     /// Tile width in pixels.
+    #[must_use]
     pub const fn width(self) -> usize {
         match self {
             PacketShape::P2x2 => 2,
@@ -37,6 +38,7 @@ impl PacketShape {
     }
 
     /// Tile height in pixels.
+    #[must_use]
     pub const fn height(self) -> usize {
         match self {
             PacketShape::P2x2 | PacketShape::P4x2 => 2,
@@ -46,11 +48,13 @@ impl PacketShape {
     }
 
     /// Rays per packet: 4, 8, 16 or 64.
+    #[must_use]
     pub const fn ray_count(self) -> usize {
         self.width() * self.height()
     }
 
     /// The shape with `n` rays, if there is one.
+    #[must_use]
     pub const fn from_len(n: usize) -> Option<PacketShape> {
         match n {
             4 => Some(PacketShape::P2x2),
@@ -82,6 +86,7 @@ pub struct RayPacket {
 
 impl RayPacket {
     /// A packet of the rays in `rays`; panics if there are more than 64.
+    #[must_use]
     pub fn from_rays(rays: &[Ray]) -> Self {
         assert!(
             rays.len() <= MAX_PACKET_RAYS,
@@ -118,18 +123,21 @@ impl RayPacket {
 
     /// Number of rays.
     #[inline]
+    #[must_use]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// True for a packet of no rays.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Bit `i` set for every ray `i < len`.
     #[inline]
+    #[must_use]
     pub fn full_mask(&self) -> u64 {
         if self.len == MAX_PACKET_RAYS {
             u64::MAX
@@ -140,6 +148,7 @@ impl RayPacket {
 
     /// Ray `i`. Panics if `i >= len`.
     #[inline]
+    #[must_use]
     pub fn ray(&self, i: usize) -> Ray {
         assert!(i < self.len);
         Ray {
@@ -199,6 +208,7 @@ impl Default for HitPacket {
 impl HitPacket {
     /// The hit of ray `i`. Panics if `i >= 64`.
     #[inline]
+    #[must_use]
     pub fn hit(&self, i: usize) -> Hit {
         Hit {
             t: self.t[i],

@@ -22,6 +22,7 @@ pub struct Ray {
 impl Ray {
     /// A ray over `[0, +inf)`.
     #[inline]
+    #[must_use]
     pub fn new(origin: Vec3, direction: Vec3) -> Self {
         Ray {
             origin,
@@ -33,6 +34,7 @@ impl Ray {
 
     /// The point at parameter `t`.
     #[inline]
+    #[must_use]
     pub fn at(&self, t: f32) -> Vec3 {
         self.origin + self.direction * t
     }
@@ -66,6 +68,7 @@ impl Hit {
 
     /// Did the ray hit anything?
     #[inline]
+    #[must_use]
     pub fn is_hit(&self) -> bool {
         self.triangle != u32::MAX
     }
@@ -73,6 +76,7 @@ impl Hit {
     /// Is `(t, triangle)` closer than this hit? Ties in `t` go to the smaller triangle id, so the
     /// closest hit is unique whatever order triangles are tested in.
     #[inline]
+    #[must_use]
     pub fn is_beaten_by(&self, t: f32, triangle: u32) -> bool {
         t < self.t || (t == self.t && triangle < self.triangle)
     }

@@ -59,6 +59,7 @@ fn clip<F: LaneF32>(
 /// `tmin`/`tmax` gives `None`; NaN in an origin or `inv_direction` component leaves that axis
 /// unconstrained.
 #[inline(always)]
+#[must_use]
 pub fn ray_box(
     origin: Vec3,
     inv_direction: Vec3,

@@ -133,6 +133,7 @@ impl BuildParams {
     }
 
     /// The depth limit for `triangles` triangles.
+    #[must_use]
     pub fn depth_limit(&self, triangles: usize) -> u32 {
         self.max_depth
             .unwrap_or_else(|| (8.0 + 1.3 * (triangles.max(1) as f64).log2()).round() as u32)
@@ -181,18 +182,21 @@ pub struct KdTree {
 impl KdTree {
     /// The nodes, root first.
     #[inline(always)]
+    #[must_use]
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
     }
 
     /// Leaf records, indexed by [`Node::leaf_record`].
     #[inline(always)]
+    #[must_use]
     pub fn leaves(&self) -> &[LeafRecord] {
         &self.leaves
     }
 
     /// The triangles of leaf record `leaf`.
     #[inline(always)]
+    #[must_use]
     pub fn leaf_triangles(&self, leaf: &LeafRecord) -> LeafTriangles<'_> {
         let r = leaf.first as usize..(leaf.first + leaf.count) as usize;
         LeafTriangles {
@@ -204,18 +208,21 @@ impl KdTree {
 
     /// The root cell: the mesh's bounding box (empty for an empty mesh).
     #[inline]
+    #[must_use]
     pub fn bounds(&self) -> Aabb {
         self.bounds
     }
 
     /// How many triangles the mesh had.
     #[inline]
+    #[must_use]
     pub fn mesh_triangle_count(&self) -> usize {
         self.mesh_triangles
     }
 
     /// Build statistics.
     #[inline]
+    #[must_use]
     pub fn stats(&self) -> &BuildStats {
         &self.stats
     }
@@ -237,6 +244,7 @@ impl KdTree {
     /// assert!(tree.sah_cost(1.5) < 1.5 * mesh.triangle_count() as f64);
     /// # Ok::<(), kdbeam::Error>(())
     /// ```
+    #[must_use]
     pub fn sah_cost(&self, ci_over_ct: f32) -> f64 {
         stats::sah_cost(&self.nodes, self.bounds, ci_over_ct, |record| {
             self.leaves[record as usize].count

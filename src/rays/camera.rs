@@ -22,6 +22,7 @@ pub struct Camera {
 impl Camera {
     /// The standard camera for a scene bounded by `bounds` (an empty box gives an eye at the
     /// origin, every ray then misses).
+    #[must_use]
     pub fn standard(bounds: &Aabb, width: u32, height: u32) -> Self {
         let eye = if bounds.is_empty() {
             Vec3::ZERO
@@ -36,6 +37,7 @@ impl Camera {
 
     /// The primary ray through the centre of pixel `(x, y)`, `t` over `[0, +inf)`.
     #[inline]
+    #[must_use]
     pub fn ray(&self, x: u32, y: u32) -> Ray {
         let half_u = 0.5 * screen(x, self.width);
         let half_v = 0.5 * screen(y, self.height);
@@ -85,6 +87,7 @@ impl Camera {
     /// assert_eq!(packets.iter().map(|p| p.len()).sum::<usize>(), 60);
     /// assert_eq!(packets[2].len(), 2 * 4); // the cut tile at the right edge
     /// ```
+    #[must_use]
     pub fn tile_packets(&self, shape: PacketShape) -> Vec<RayPacket> {
         let (tw, th) = (shape.width() as u32, shape.height() as u32);
         let mut packets = Vec::new();
@@ -100,6 +103,7 @@ impl Camera {
     }
 
     /// Every primary ray, row by row.
+    #[must_use]
     pub fn rays(&self) -> Vec<Ray> {
         (0..self.height)
             .flat_map(|y| (0..self.width).map(move |x| self.ray(x, y)))

@@ -267,6 +267,7 @@ pub fn generate(params: &SyntheticParams) -> Result<SyntheticCell> {
 /// f32 Kensler–Shirley test: every ray against every triangle, not only closest hits.
 ///
 /// 0 for a cell without rays or triangles.
+#[must_use]
 pub fn hit_rate(cell: &SyntheticCell) -> f64 {
     use kdbeam_kernels::intersect::kensler_shirley::intersect;
     let mut hits = 0u64;

@@ -142,6 +142,7 @@ impl Culling {
     ];
 
     /// Fixed planes and aperture on every leaf visit, maskless.
+    #[must_use]
     pub const fn planes(planes: Planes, aperture: bool) -> Culling {
         Culling {
             planes,
@@ -181,6 +182,7 @@ impl Culling {
     }
 
     /// Is any beam built at all?
+    #[must_use]
     pub fn is_enabled(&self) -> bool {
         self.planes != Planes::None
     }
@@ -222,6 +224,7 @@ impl Culling {
     /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
+    #[must_use]
     pub fn name(&self) -> String {
         let options = |base: &Culling| {
             let mut options = Vec::new();
@@ -286,6 +289,7 @@ impl Frustum {
 
     /// Its option in the culling grammar, without the `/`: `maskless`, `masked`, `adaptive`,
     /// `packet`.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Frustum::Maskless => "maskless",

@@ -21,6 +21,7 @@ pub(crate) trait LeafVisitor {
 /// Can this ray be traced? Finite origin and direction, a non-zero direction and
 /// `tmin <= tmax` (`tmax` may be `+inf`). Every other ray reports a miss on every path.
 #[inline(always)]
+#[must_use]
 pub fn is_traceable(ray: &Ray) -> bool {
     ray.origin.is_finite()
         && ray.direction.is_finite()

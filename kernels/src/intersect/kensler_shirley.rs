@@ -38,6 +38,7 @@ use crate::triangle::KsTriangle;
 /// both after rounding; use the watertight test where that matters). `ray.tmin`/`ray.tmax` are
 /// ignored in favour of the arguments. Degenerate triangles (`n = 0`) and NaN rays never hit.
 #[inline(always)]
+#[must_use]
 pub fn intersect(ray: &Ray, tri: &KsTriangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
     let d = ray.direction.to_array();
     let n = tri.n.to_array();

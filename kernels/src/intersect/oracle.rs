@@ -38,6 +38,7 @@ pub struct OracleRay {
 impl OracleRay {
     /// Prepares `ray` (converted exactly to `f64`; its `tmin`/`tmax` are not used). A ray whose
     /// direction has a NaN or infinite component never hits.
+    #[must_use]
     pub fn new(ray: &Ray) -> Self {
         let d = ray.direction.as_dvec3();
         let a = d.abs();
@@ -68,6 +69,7 @@ impl OracleRay {
 
     /// The hit with `tmin <= t <= tmax`, if any (edges and vertices included, both windings).
     /// Degenerate triangles (`det = 0`) and rays with NaN never hit.
+    #[must_use]
     pub fn intersect(&self, tri: &Triangle, tmin: f64, tmax: f64) -> Option<OracleHit> {
         let [kx, ky, kz] = self.axes;
         let [sx, sy, sz] = self.shear;

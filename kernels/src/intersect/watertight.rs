@@ -147,6 +147,7 @@ impl WatertightRay {
     /// it never misses both). Both windings hit. Triangles with two equal vertices and rays with
     /// NaN never hit (collinear distinct vertices: see the [module](super) documentation).
     #[inline(always)]
+    #[must_use]
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let [a, b, c] = [
             self.project(tri.v0),
