@@ -27,10 +27,7 @@ fn build(c: &mut Criterion) {
         g.throughput(Throughput::Elements(mesh.triangle_count() as u64));
         g.sample_size(10);
         for ci_over_ct in [1.0, BuildParams::default().ci_over_ct, 10.0] {
-            let params = BuildParams {
-                ci_over_ct,
-                ..BuildParams::default()
-            };
+            let params = BuildParams::default().with_ci_over_ct(ci_over_ct);
             for (threads, pool) in &pools {
                 g.bench_with_input(
                     BenchmarkId::new(threads, format!("ci{ci_over_ct}")),

@@ -135,20 +135,18 @@ fn build_params_at_the_ends_of_their_ranges_build() {
     let mesh = kdbeam::scene::procedural::icosphere(Vec3::ZERO, 1.0, 2);
     let rays = kdbeam::rays::random_rays(&mesh.bounds(), 200, 3);
     for params in [
-        BuildParams {
-            ci_over_ct: f32::MIN_POSITIVE,
-            empty_bonus: 0.0,
-            max_depth: Some(0),
-            leaf_size: 1,
-            exact_search_max: 0,
-        },
-        BuildParams {
-            ci_over_ct: f32::MAX,
-            empty_bonus: 0.999_999,
-            max_depth: Some(64),
-            leaf_size: u32::MAX,
-            exact_search_max: u32::MAX,
-        },
+        BuildParams::default()
+            .with_ci_over_ct(f32::MIN_POSITIVE)
+            .with_empty_bonus(0.0)
+            .with_max_depth(Some(0))
+            .with_leaf_size(1)
+            .with_exact_search_max(0),
+        BuildParams::default()
+            .with_ci_over_ct(f32::MAX)
+            .with_empty_bonus(0.999_999)
+            .with_max_depth(Some(64))
+            .with_leaf_size(u32::MAX)
+            .with_exact_search_max(u32::MAX),
     ] {
         let tree = KdTree::build(&mesh, &params).expect("valid parameters");
         let tracer = Tracer::new(&tree).with_intersector(Intersector::Watertight);

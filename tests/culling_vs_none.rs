@@ -97,14 +97,7 @@ fn packets(mesh: &Mesh, count: usize, seed: u64) -> Vec<(Vec<Ray>, u64)> {
 
 /// Compares every culling mode with the scalar path; returns ray–leaf visits traced.
 fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
-    let tree = KdTree::build(
-        mesh,
-        &BuildParams {
-            ci_over_ct: ci,
-            ..Default::default()
-        },
-    )
-    .unwrap();
+    let tree = KdTree::build(mesh, &BuildParams::default().with_ci_over_ct(ci)).unwrap();
     let packets = packets(mesh, count, seed);
     let mut visits = 0;
     let mut wider_ties = 0u64;

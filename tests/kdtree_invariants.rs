@@ -92,10 +92,7 @@ fn sphere(stacks: u32, slices: u32, r: f32, center: [f32; 3]) -> Mesh {
 }
 
 fn params(ci_over_ct: f32) -> BuildParams {
-    BuildParams {
-        ci_over_ct,
-        ..BuildParams::default()
-    }
+    BuildParams::default().with_ci_over_ct(ci_over_ct)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -477,10 +474,7 @@ fn every_exact_search_threshold_satisfies_every_invariant() {
     for (name, mesh) in &meshes {
         let mut costs = Vec::new();
         for exact_search_max in [0, 8, 64, u32::MAX] {
-            let p = BuildParams {
-                exact_search_max,
-                ..BuildParams::default()
-            };
+            let p = BuildParams::default().with_exact_search_max(exact_search_max);
             let tree = build_and_check(mesh, &p);
             println!("{name} exact ≤ {exact_search_max}: {}", tree.stats());
             costs.push(tree.sah_cost(p.ci_over_ct));
@@ -497,28 +491,15 @@ fn every_exact_search_threshold_satisfies_every_invariant() {
 fn leaf_size_depth_limit_and_empty_bonus_are_respected() {
     let mesh = soup(800, 0.1, [0.0; 3], 3);
     for p in [
-        BuildParams {
-            leaf_size: 8,
-            ci_over_ct: 10.0,
-            ..BuildParams::default()
-        },
-        BuildParams {
-            max_depth: Some(3),
-            ci_over_ct: 10.0,
-            ..BuildParams::default()
-        },
-        BuildParams {
-            max_depth: Some(0),
-            ..BuildParams::default()
-        },
-        BuildParams {
-            empty_bonus: 0.0,
-            ..BuildParams::default()
-        },
-        BuildParams {
-            empty_bonus: 0.95,
-            ..BuildParams::default()
-        },
+        BuildParams::default()
+            .with_leaf_size(8)
+            .with_ci_over_ct(10.0),
+        BuildParams::default()
+            .with_max_depth(Some(3))
+            .with_ci_over_ct(10.0),
+        BuildParams::default().with_max_depth(Some(0)),
+        BuildParams::default().with_empty_bonus(0.0),
+        BuildParams::default().with_empty_bonus(0.95),
     ] {
         let tree = build_and_check(&mesh, &p);
         if p.max_depth == Some(0) {
@@ -555,63 +536,15 @@ fn invalid_parameters_are_rejected_by_name() {
     let mesh = soup(10, 0.1, [0.0; 3], 6);
     let d = BuildParams::default();
     let cases = [
-        (
-            "ci_over_ct",
-            BuildParams {
-                ci_over_ct: 0.0,
-                ..d
-            },
-        ),
-        (
-            "ci_over_ct",
-            BuildParams {
-                ci_over_ct: -1.0,
-                ..d
-            },
-        ),
-        (
-            "ci_over_ct",
-            BuildParams {
-                ci_over_ct: f32::NAN,
-                ..d
-            },
-        ),
-        (
-            "ci_over_ct",
-            BuildParams {
-                ci_over_ct: f32::INFINITY,
-                ..d
-            },
-        ),
-        (
-            "empty_bonus",
-            BuildParams {
-                empty_bonus: 1.0,
-                ..d
-            },
-        ),
-        (
-            "empty_bonus",
-            BuildParams {
-                empty_bonus: -0.1,
-                ..d
-            },
-        ),
-        (
-            "empty_bonus",
-            BuildParams {
-                empty_bonus: f32::NAN,
-                ..d
-            },
-        ),
-        (
-            "max_depth",
-            BuildParams {
-                max_depth: Some(65),
-                ..d
-            },
-        ),
-        ("leaf_size", BuildParams { leaf_size: 0, ..d }),
+        ("ci_over_ct", d.with_ci_over_ct(0.0)),
+        ("ci_over_ct", d.with_ci_over_ct(-1.0)),
+        ("ci_over_ct", d.with_ci_over_ct(f32::NAN)),
+        ("ci_over_ct", d.with_ci_over_ct(f32::INFINITY)),
+        ("empty_bonus", d.with_empty_bonus(1.0)),
+        ("empty_bonus", d.with_empty_bonus(-0.1)),
+        ("empty_bonus", d.with_empty_bonus(f32::NAN)),
+        ("max_depth", d.with_max_depth(Some(65))),
+        ("leaf_size", d.with_leaf_size(0)),
     ];
     for (field, p) in cases {
         match KdTree::build(&mesh, &p) {

@@ -48,14 +48,7 @@ fn check_scene(name: &str, mesh: &Mesh) {
         "{name}: no ray hits anything: the test would prove nothing"
     );
     for ci in [0.1, 1.0, 10.0] {
-        let tree = KdTree::build(
-            mesh,
-            &BuildParams {
-                ci_over_ct: ci,
-                ..Default::default()
-            },
-        )
-        .unwrap();
+        let tree = KdTree::build(mesh, &BuildParams::default().with_ci_over_ct(ci)).unwrap();
         let structural: Vec<usize> = rays
             .par_iter()
             .zip(&truth)
@@ -100,7 +93,7 @@ fn check_scene(name: &str, mesh: &Mesh) {
                         let n = (tri.v1 - tri.v0)
                             .as_dvec3()
                             .cross((tri.v2 - tri.v0).as_dvec3());
-                        let d = r.dir.as_dvec3();
+                        let d = r.direction.as_dvec3();
                         let cos = (n.dot(d).abs() / (n.length() * d.length())).max(1e-3);
                         let tol = (1e-4 * w.t + 1e-6 * diag) / cos;
                         if got.triangle == w.triangle {

@@ -260,7 +260,7 @@ fn ray_through_an_edge_on_a_split_plane_at_the_root_box_hits() {
     let tree = KdTree::build(&mesh, &BuildParams::default()).expect("valid mesh");
     let ray = Ray {
         origin: Vec3::new(-3.8276753, 2.2654428, 1.4012221),
-        dir: Vec3::new(2.8276753, -1.7654428, -1.2842267),
+        direction: Vec3::new(2.8276753, -1.7654428, -1.2842267),
         tmin: 0.0,
         tmax: 1.1,
     };

@@ -131,9 +131,9 @@ fn axis_parallel_and_grazing_rays() {
                     } else {
                         lo[axis] + 7.0
                     };
-                    let mut dir = Vec3::ZERO;
-                    dir[axis] = sign;
-                    rays.push(Ray::new(o, dir));
+                    let mut direction = Vec3::ZERO;
+                    direction[axis] = sign;
+                    rays.push(Ray::new(o, direction));
                 }
             }
         }
@@ -164,7 +164,7 @@ fn axis_parallel_and_grazing_rays() {
         .map(|r| {
             Ray::new(
                 Vec3::new(r.origin.x - lo.x, r.origin.y - lo.y, 0.0) * 0.25,
-                r.dir,
+                r.direction,
             )
         })
         .collect();
@@ -214,7 +214,7 @@ fn rays_starting_on_a_surface() {
         for r in &outward {
             let hit = tracer.intersect(r);
             assert!(
-                !hit.is_hit() || hit.t * r.dir.length() <= 1e-5 * 4.0,
+                !hit.is_hit() || hit.t * r.direction.length() <= 1e-5 * 4.0,
                 "{intersector:?}: {r:?} → {hit:?}"
             );
         }
@@ -317,11 +317,11 @@ fn untraceable() -> Vec<Ray> {
     };
     vec![
         with(|r| r.origin.x = f32::NAN),
-        with(|r| r.dir.y = f32::NAN),
-        with(|r| r.dir.z = f32::INFINITY),
-        with(|r| r.dir.x = f32::NEG_INFINITY),
+        with(|r| r.direction.y = f32::NAN),
+        with(|r| r.direction.z = f32::INFINITY),
+        with(|r| r.direction.x = f32::NEG_INFINITY),
         with(|r| r.origin.z = f32::NEG_INFINITY),
-        with(|r| r.dir = Vec3::ZERO),
+        with(|r| r.direction = Vec3::ZERO),
         with(|r| r.tmax = f32::NAN),
         with(|r| (r.tmin, r.tmax) = (2.0, 1.0)),
         with(|r| r.tmin = f32::NAN),

@@ -93,14 +93,7 @@ fn packets_equal_scalar_on_shared_scenes() {
     let mut total = 0;
     for (name, mesh) in scenes {
         for ci in [1.0, 10.0] {
-            let tree = KdTree::build(
-                &mesh,
-                &BuildParams {
-                    ci_over_ct: ci,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
+            let tree = KdTree::build(&mesh, &BuildParams::default().with_ci_over_ct(ci)).unwrap();
             let mut rays = common::primary_rays(&mesh, 64, 64);
             rays.extend(random_rays(&mesh.bounds(), 2048, 5));
             rays.extend(common::adversarial_rays(&mesh, 2048, 13));

@@ -7,6 +7,7 @@
 //! - `embree` (the `embree` feature): Embree 3 on the same rays, for side-by-side figures.
 #![deny(missing_docs)]
 #![deny(unsafe_code)]
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 #[cfg(feature = "embree")]
 pub mod embree;

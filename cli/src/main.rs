@@ -1,4 +1,5 @@
 //! The kdbeam command-line tool: render a scene, benchmark the tracer.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use std::process::ExitCode;
 

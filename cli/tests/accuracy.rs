@@ -31,11 +31,8 @@ fn culling_modes_agree_with_no_culling_and_score_the_same_against_the_oracle() {
     let mesh = procedural::builtin("soup:2000").unwrap();
     let tree = KdTree::build(
         &mesh,
-        &BuildParams {
-            // Large leaves: culling does the most.
-            ci_over_ct: 0.3,
-            ..BuildParams::default()
-        },
+        // Large leaves: culling does the most.
+        &BuildParams::default().with_ci_over_ct(0.3),
     )
     .unwrap();
     for set in [RaySet::Primary, RaySet::Random] {

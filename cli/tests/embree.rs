@@ -61,7 +61,7 @@ impl Agreement {
 
     fn add(&mut self, mesh: &Mesh, ray: &Ray, embree: &Hit, kdbeam: &Hit) {
         self.rays += 1;
-        let near = self.near / ray.dir.length();
+        let near = self.near / ray.direction.length();
         let relative = |t: f32| (t - kdbeam.t).abs() / kdbeam.t.abs().max(near);
         if embree.is_hit() != kdbeam.is_hit() {
             self.hit_vs_miss += 1;
@@ -213,8 +213,8 @@ fn untraceable_rays_are_inactive_lanes_and_disturb_no_other_lane() {
     };
     let bad = [
         with(|r| r.origin.x = f32::NAN),
-        with(|r| r.dir = Vec3::ZERO),
-        with(|r| r.dir.y = f32::INFINITY),
+        with(|r| r.direction = Vec3::ZERO),
+        with(|r| r.direction.y = f32::INFINITY),
         with(|r| r.tmin = 2.0 * r.tmax.min(1.0)),
         with(|r| r.tmax = f32::NAN),
         with(|r| r.tmin = -1.0),

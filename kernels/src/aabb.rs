@@ -22,6 +22,7 @@ impl Aabb {
 
     /// The box `[min, max]`.
     #[inline]
+    #[must_use]
     pub fn new(min: Vec3, max: Vec3) -> Self {
         Aabb { min, max }
     }
@@ -34,6 +35,7 @@ impl Aabb {
 
     /// This box grown to hold `p`.
     #[inline]
+    #[must_use]
     pub fn grow(self, p: Vec3) -> Self {
         Aabb {
             min: self.min.min(p),
@@ -43,6 +45,7 @@ impl Aabb {
 
     /// The smallest box holding both.
     #[inline]
+    #[must_use]
     pub fn union(self, o: Aabb) -> Self {
         Aabb {
             min: self.min.min(o.min),
@@ -52,6 +55,7 @@ impl Aabb {
 
     /// The common part (empty if they do not overlap).
     #[inline]
+    #[must_use]
     pub fn intersection(self, o: Aabb) -> Self {
         Aabb {
             min: self.min.max(o.min),
@@ -62,24 +66,28 @@ impl Aabb {
     /// True when `min > max` on some axis. A box of zero thickness (a point, a flat box) is not
     /// empty.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
     /// `max − min`.
     #[inline]
+    #[must_use]
     pub fn extent(&self) -> Vec3 {
         self.max - self.min
     }
 
     /// The centre.
     #[inline]
+    #[must_use]
     pub fn center(&self) -> Vec3 {
         (self.min + self.max) * 0.5
     }
 
     /// Surface area (0 for an empty box).
     #[inline]
+    #[must_use]
     pub fn surface_area(&self) -> f32 {
         if self.is_empty() {
             return 0.0;
@@ -90,12 +98,14 @@ impl Aabb {
 
     /// Does the box contain `p` (boundary included)?
     #[inline]
+    #[must_use]
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
 
     /// Does it contain all of `o`? (An empty `o` is contained in anything.)
     #[inline]
+    #[must_use]
     pub fn contains_box(&self, o: &Aabb) -> bool {
         o.is_empty() || (o.min.cmpge(self.min).all() && o.max.cmple(self.max).all())
     }

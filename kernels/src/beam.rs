@@ -162,7 +162,7 @@ impl<L: Lanes> Beam<L> {
                 if act.none() {
                     continue;
                 }
-                let d = l.load(&p.dir[a][g * w..]);
+                let d = l.load(&p.direction[a][g * w..]);
                 lo = L::F32::select(act, d, inf).min(lo);
                 hi = L::F32::select(act, d, -inf).max(hi);
             }
@@ -213,12 +213,12 @@ impl<L: Lanes> Beam<L> {
                 continue;
             }
             let b = g * w;
-            let ox = s * (l.load(&p.org[axes[0]][b..]) - splat_c[0]);
-            let oy = l.load(&p.org[axes[1]][b..]) - splat_c[1];
-            let oz = l.load(&p.org[axes[2]][b..]) - splat_c[2];
-            let dxr = s * l.load(&p.dir[axes[0]][b..]);
-            let sy = l.load(&p.dir[axes[1]][b..]) / dxr;
-            let sz = l.load(&p.dir[axes[2]][b..]) / dxr;
+            let ox = s * (l.load(&p.origin[axes[0]][b..]) - splat_c[0]);
+            let oy = l.load(&p.origin[axes[1]][b..]) - splat_c[1];
+            let oz = l.load(&p.origin[axes[2]][b..]) - splat_c[2];
+            let dxr = s * l.load(&p.direction[axes[0]][b..]);
+            let sy = l.load(&p.direction[axes[1]][b..]) / dxr;
+            let sz = l.load(&p.direction[axes[2]][b..]) / dxr;
             let cy0 = oy - ox * sy;
             let cz0 = oz - ox * sz;
             let cy1 = cy0 + ldx * sy;

@@ -46,7 +46,7 @@ pub fn load_axes<L: Lanes>(l: L, columns: &[[f32; MAX_PACKET_RAYS]; 3], b: usize
 pub fn lane_rays<L: Lanes>(l: L, p: &RayPacket, g: usize) -> LaneRays<L> {
     let b = g * L::WIDTH;
     LaneRays {
-        org: load_axes(l, &p.org, b),
-        dir: load_axes(l, &p.dir, b),
+        origin: load_axes(l, &p.origin, b),
+        direction: load_axes(l, &p.direction, b),
     }
 }

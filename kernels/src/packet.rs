@@ -28,6 +28,7 @@ impl PacketShape {
     ];
 
     /// Tile width in pixels.
+    #[must_use]
     pub const fn width(self) -> usize {
         match self {
             PacketShape::P2x2 => 2,
@@ -37,6 +38,7 @@ impl PacketShape {
     }
 
     /// Tile height in pixels.
+    #[must_use]
     pub const fn height(self) -> usize {
         match self {
             PacketShape::P2x2 | PacketShape::P4x2 => 2,
@@ -46,11 +48,13 @@ impl PacketShape {
     }
 
     /// Rays per packet: 4, 8, 16 or 64.
+    #[must_use]
     pub const fn ray_count(self) -> usize {
         self.width() * self.height()
     }
 
     /// The shape with `n` rays, if there is one.
+    #[must_use]
     pub const fn from_len(n: usize) -> Option<PacketShape> {
         match n {
             4 => Some(PacketShape::P2x2),
@@ -62,7 +66,7 @@ impl PacketShape {
     }
 }
 
-/// Up to 64 rays in structure-of-arrays layout: `org[axis][ray]`, `dir[axis][ray]`.
+/// Up to 64 rays in structure-of-arrays layout: `origin[axis][ray]`, `direction[axis][ray]`.
 ///
 /// Lanes past [`RayPacket::len`] hold zeros and are never traced. Every array is 64-byte
 /// aligned so that a group of 4 or 8 lanes is one aligned load.
@@ -70,9 +74,9 @@ impl PacketShape {
 #[derive(Clone, Debug, PartialEq)]
 pub struct RayPacket {
     /// Origins, by axis then ray.
-    pub org: [[f32; MAX_PACKET_RAYS]; 3],
+    pub origin: [[f32; MAX_PACKET_RAYS]; 3],
     /// Directions, by axis then ray.
-    pub dir: [[f32; MAX_PACKET_RAYS]; 3],
+    pub direction: [[f32; MAX_PACKET_RAYS]; 3],
     /// Smallest accepted `t` per ray.
     pub tmin: [f32; MAX_PACKET_RAYS],
     /// Largest accepted `t` per ray.
@@ -82,14 +86,15 @@ pub struct RayPacket {
 
 impl RayPacket {
     /// A packet of the rays in `rays`; panics if there are more than 64.
+    #[must_use]
     pub fn from_rays(rays: &[Ray]) -> Self {
         assert!(
             rays.len() <= MAX_PACKET_RAYS,
             "a packet holds at most 64 rays"
         );
         let mut p = RayPacket {
-            org: [[0.0; MAX_PACKET_RAYS]; 3],
-            dir: [[0.0; MAX_PACKET_RAYS]; 3],
+            origin: [[0.0; MAX_PACKET_RAYS]; 3],
+            direction: [[0.0; MAX_PACKET_RAYS]; 3],
             tmin: [0.0; MAX_PACKET_RAYS],
             tmax: [0.0; MAX_PACKET_RAYS],
             len: rays.len(),
@@ -108,8 +113,8 @@ impl RayPacket {
     pub fn set_len(&mut self, len: usize) {
         assert!(len <= MAX_PACKET_RAYS, "a packet holds at most 64 rays");
         for a in 0..3 {
-            self.org[a][len..].fill(0.0);
-            self.dir[a][len..].fill(0.0);
+            self.origin[a][len..].fill(0.0);
+            self.direction[a][len..].fill(0.0);
         }
         self.tmin[len..].fill(0.0);
         self.tmax[len..].fill(0.0);
@@ -118,18 +123,21 @@ impl RayPacket {
 
     /// Number of rays.
     #[inline]
+    #[must_use]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// True for a packet of no rays.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Bit `i` set for every ray `i < len`.
     #[inline]
+    #[must_use]
     pub fn full_mask(&self) -> u64 {
         if self.len == MAX_PACKET_RAYS {
             u64::MAX
@@ -140,11 +148,17 @@ impl RayPacket {
 
     /// Ray `i`. Panics if `i >= len`.
     #[inline]
+    #[must_use]
     pub fn ray(&self, i: usize) -> Ray {
         assert!(i < self.len);
         Ray {
-            origin: [self.org[0][i], self.org[1][i], self.org[2][i]].into(),
-            dir: [self.dir[0][i], self.dir[1][i], self.dir[2][i]].into(),
+            origin: [self.origin[0][i], self.origin[1][i], self.origin[2][i]].into(),
+            direction: [
+                self.direction[0][i],
+                self.direction[1][i],
+                self.direction[2][i],
+            ]
+            .into(),
             tmin: self.tmin[i],
             tmax: self.tmax[i],
         }
@@ -155,8 +169,8 @@ impl RayPacket {
     pub fn set(&mut self, i: usize, r: &Ray) {
         assert!(i < self.len);
         for a in 0..3 {
-            self.org[a][i] = r.origin[a];
-            self.dir[a][i] = r.dir[a];
+            self.origin[a][i] = r.origin[a];
+            self.direction[a][i] = r.direction[a];
         }
         self.tmin[i] = r.tmin;
         self.tmax[i] = r.tmax;
@@ -194,6 +208,7 @@ impl Default for HitPacket {
 impl HitPacket {
     /// The hit of ray `i`. Panics if `i >= 64`.
     #[inline]
+    #[must_use]
     pub fn hit(&self, i: usize) -> Hit {
         Hit {
             t: self.t[i],

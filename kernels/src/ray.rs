@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 
-/// A ray `origin + t * dir` for `t` in `[tmin, tmax]`.
+/// A ray `origin + t * direction` for `t` in `[tmin, tmax]`.
 ///
-/// `dir` need not be normalised; `t` is measured in units of `|dir|`. A zero or NaN direction, or
+/// `direction` need not be normalised; `t` is measured in units of `|direction|`. A zero or NaN direction, or
 /// a NaN origin, gives no hit (every test compares ordered, so NaN fails them), never a panic.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
@@ -12,7 +12,7 @@ pub struct Ray {
     /// Where the ray starts.
     pub origin: Vec3,
     /// Where it goes (any length).
-    pub dir: Vec3,
+    pub direction: Vec3,
     /// Smallest accepted `t`.
     pub tmin: f32,
     /// Largest accepted `t`.
@@ -22,10 +22,11 @@ pub struct Ray {
 impl Ray {
     /// A ray over `[0, +inf)`.
     #[inline]
-    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+    #[must_use]
+    pub fn new(origin: Vec3, direction: Vec3) -> Self {
         Ray {
             origin,
-            dir,
+            direction,
             tmin: 0.0,
             tmax: f32::INFINITY,
         }
@@ -33,8 +34,9 @@ impl Ray {
 
     /// The point at parameter `t`.
     #[inline]
+    #[must_use]
     pub fn at(&self, t: f32) -> Vec3 {
-        self.origin + self.dir * t
+        self.origin + self.direction * t
     }
 }
 
@@ -66,6 +68,7 @@ impl Hit {
 
     /// Did the ray hit anything?
     #[inline]
+    #[must_use]
     pub fn is_hit(&self) -> bool {
         self.triangle != u32::MAX
     }
@@ -73,6 +76,7 @@ impl Hit {
     /// Is `(t, triangle)` closer than this hit? Ties in `t` go to the smaller triangle id, so the
     /// closest hit is unique whatever order triangles are tested in.
     #[inline]
+    #[must_use]
     pub fn is_beaten_by(&self, t: f32, triangle: u32) -> bool {
         t < self.t || (t == self.t && triangle < self.triangle)
     }

@@ -1,12 +1,12 @@
 //! Ray and packet × box clipping by slabs (Kay & Kajiya), robust to zero direction components.
 //!
-//! Callers pass `inv_dir = 1 / dir` per component (`Vec3::recip`, or `l.splat(1.0) / d` per
+//! Callers pass `inv_direction = 1 / direction` per component (`Vec3::recip`, or `l.splat(1.0) / d` per
 //! lane): a zero component gives `±inf`, which is exactly what this code expects, so no "safe
 //! reciprocal" is needed or wanted (replacing `1/0` by a large finite number makes rays that
 //! start just outside a slab enter it).
 //!
-//! Per axis, the plane the ray enters through is `min` when `inv_dir >= 0` and `max` when
-//! `inv_dir < 0` (`inv_dir = ±inf` for `d = ±0`, so the sign of the zero picks the planes), and
+//! Per axis, the plane the ray enters through is `min` when `inv_direction >= 0` and `max` when
+//! `inv_direction < 0` (`inv_direction = ±inf` for `d = ±0`, so the sign of the zero picks the planes), and
 //! `t_enter = (enter − o)·inv`, `t_exit = (exit − o)·inv`. Choosing the planes by sign, instead of
 //! taking `min(t0, t1)`/`max(t0, t1)`, keeps entry and exit apart even when one of them is NaN.
 //!
@@ -17,7 +17,7 @@
 //! interval is therefore updated as `tnear = t_enter.max(tnear)` and `tfar = t_exit.min(tfar)`
 //! with the new value as the **first** operand: [`LaneF32::min`]/[`LaneF32::max`] (x86
 //! `minps`/`maxps`) return their second operand when either is NaN, so a NaN plane distance is
-//! discarded. The same rule makes an axis whose origin or `inv_dir` component is NaN constrain
+//! discarded. The same rule makes an axis whose origin or `inv_direction` component is NaN constrain
 //! nothing (such a ray must be rejected by the triangle test, which every intersector does);
 //! a NaN `tmin` or `tmax` gives no interval.
 //!
@@ -33,36 +33,43 @@ use crate::lanes::{LaneF32, Lanes};
 /// Clips `[near, far]` by the three slabs of `[lo, hi]` (see the module documentation).
 #[inline(always)]
 fn clip<F: LaneF32>(
-    org: &[F; 3],
-    inv_dir: &[F; 3],
+    origin: &[F; 3],
+    inv_direction: &[F; 3],
     [lo, hi]: [[F; 3]; 2],
     zero: F,
     mut near: F,
     mut far: F,
 ) -> (F, F) {
     for k in 0..3 {
-        let backwards = inv_dir[k].lt(zero);
+        let backwards = inv_direction[k].lt(zero);
         let enter = F::select(backwards, hi[k], lo[k]);
         let exit = F::select(backwards, lo[k], hi[k]);
-        near = ((enter - org[k]) * inv_dir[k]).max(near);
-        far = ((exit - org[k]) * inv_dir[k]).min(far);
+        near = ((enter - origin[k]) * inv_direction[k]).max(near);
+        far = ((exit - origin[k]) * inv_direction[k]).min(far);
     }
     (near, far)
 }
 
-/// The part `[tnear, tfar]` of `[tmin, tmax]` where the ray `org + t·d` is inside the closed
-/// box `b`, given `inv_dir = 1 / d` per component; `None` when it is empty.
+/// The part `[tnear, tfar]` of `[tmin, tmax]` where the ray `origin + t·d` is inside the closed
+/// box `b`, given `inv_direction = 1 / d` per component; `None` when it is empty.
 ///
-/// Zero direction components (`inv_dir = ±inf`) are exact, including an origin on a face plane
+/// Zero direction components (`inv_direction = ±inf`) are exact, including an origin on a face plane
 /// (the ray then lies in the face: inside). An empty box ([`Aabb::EMPTY`]) gives `None` for any
 /// direction without NaN or infinite components. NaN in
-/// `tmin`/`tmax` gives `None`; NaN in an origin or `inv_dir` component leaves that axis
+/// `tmin`/`tmax` gives `None`; NaN in an origin or `inv_direction` component leaves that axis
 /// unconstrained.
 #[inline(always)]
-pub fn ray_box(org: Vec3, inv_dir: Vec3, tmin: f32, tmax: f32, b: &Aabb) -> Option<(f32, f32)> {
+#[must_use]
+pub fn ray_box(
+    origin: Vec3,
+    inv_direction: Vec3,
+    tmin: f32,
+    tmax: f32,
+    b: &Aabb,
+) -> Option<(f32, f32)> {
     let (near, far) = clip(
-        &org.to_array(),
-        &inv_dir.to_array(),
+        &origin.to_array(),
+        &inv_direction.to_array(),
         [b.min.to_array(), b.max.to_array()],
         0.0,
         tmin,
@@ -78,13 +85,13 @@ pub fn ray_box(org: Vec3, inv_dir: Vec3, tmin: f32, tmax: f32, b: &Aabb) -> Opti
 #[inline(always)]
 pub fn slab_lanes<L: Lanes>(
     l: L,
-    org: &[L::F32; 3],
-    inv_dir: &[L::F32; 3],
+    origin: &[L::F32; 3],
+    inv_direction: &[L::F32; 3],
     tmin: L::F32,
     tmax: L::F32,
     b: &Aabb,
 ) -> (L::Mask, L::F32, L::F32) {
     let bounds = [splat3(l, b.min), splat3(l, b.max)];
-    let (near, far) = clip(org, inv_dir, bounds, l.splat(0.0), tmin, tmax);
+    let (near, far) = clip(origin, inv_direction, bounds, l.splat(0.0), tmin, tmax);
     (near.le(far), near, far)
 }

@@ -19,12 +19,14 @@ pub struct Triangle {
 impl Triangle {
     /// The triangle `(v0, v1, v2)`.
     #[inline]
+    #[must_use]
     pub fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
         Triangle { v0, v1, v2 }
     }
 
     /// Twice the area (the length of the unnormalised normal); 0 for a degenerate triangle.
     #[inline]
+    #[must_use]
     pub fn double_area(&self) -> f32 {
         (self.v1 - self.v0).cross(self.v2 - self.v0).length()
     }

@@ -29,8 +29,8 @@ impl LaneTask for AvxCodegenProbe {
         let x = l.splat(self.x);
         let fma = x.mul_add(l.splat(self.y), x);
         let rays = LaneRays::<L> {
-            org: [l.splat(0.25), l.splat(0.25), l.splat(2.0)],
-            dir: [l.splat(0.0), l.splat(0.0), l.splat(-1.0)],
+            origin: [l.splat(0.25), l.splat(0.25), l.splat(2.0)],
+            direction: [l.splat(0.0), l.splat(0.0), l.splat(-1.0)],
         };
         let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
         let hits = WatertightLanes::new(l, &rays).intersect(l, &tri, l.splat(0.0), l.splat(9.0));

@@ -66,7 +66,7 @@ fn hits_inside_the_margin_agree_with_the_oracle_and_reconstruct_the_point() {
             worst_uv = worst_uv
                 .max((hit.u as f64 - truth.u).abs())
                 .max((hit.v as f64 - truth.v).abs());
-            let on_ray = ray.origin.as_dvec3() + ray.dir.as_dvec3() * hit.t as f64;
+            let on_ray = ray.origin.as_dvec3() + ray.direction.as_dvec3() * hit.t as f64;
             let (hu, hv) = (hit.u as f64, hit.v as f64);
             let on_triangle = tri.v0.as_dvec3() * (1.0 - hu - hv)
                 + tri.v1.as_dvec3() * hu
@@ -202,13 +202,13 @@ fn kensler_shirley_never_hits_exactly_collinear_triangles() {
 /// Rays with a NaN, an infinite or an all-zero component, aimed near the triangle.
 fn non_finite_rays(rng: &mut Rng, target: Vec3) -> Vec<Ray> {
     let origin = target + rng.on_sphere() * 2.0;
-    let dir = target - origin;
+    let direction = target - origin;
     let mut rays = vec![Ray::new(origin, Vec3::ZERO), Ray::new(origin, -Vec3::ZERO)];
     for k in 0..3 {
         for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
-            let (mut o, mut d) = (origin, dir);
+            let (mut o, mut d) = (origin, direction);
             o[k] = bad;
-            rays.push(Ray::new(o, dir));
+            rays.push(Ray::new(o, direction));
             d[k] = bad;
             rays.push(Ray::new(origin, d));
         }

@@ -17,8 +17,8 @@ fn unit_box() -> Aabb {
 fn zero_components_clip_by_the_origin_alone() {
     let b = unit_box();
     for zero in [0.0f32, -0.0] {
-        let dir = Vec3::new(1.0, zero, zero);
-        let inv = dir.recip();
+        let direction = Vec3::new(1.0, zero, zero);
+        let inv = direction.recip();
         // Inside the y and z slabs, in them on a face plane, on an edge line: [0, 1] in x.
         for (y, z) in [
             (0.5, 0.5),
@@ -28,11 +28,11 @@ fn zero_components_clip_by_the_origin_alone() {
             (0.0, 1.0),
             (1.0, 1.0),
         ] {
-            let org = Vec3::new(-1.0, y, z);
+            let origin = Vec3::new(-1.0, y, z);
             assert_eq!(
-                ray_box(org, inv, 0.0, f32::INFINITY, &b),
+                ray_box(origin, inv, 0.0, f32::INFINITY, &b),
                 Some((1.0, 2.0)),
-                "{org} {dir}"
+                "{origin} {direction}"
             );
         }
         // Outside a y or z slab by any amount: miss.
@@ -42,11 +42,11 @@ fn zero_components_clip_by_the_origin_alone() {
             (0.5, -f32::MIN_POSITIVE),
             (2.0, 2.0),
         ] {
-            let org = Vec3::new(-1.0, y, z);
+            let origin = Vec3::new(-1.0, y, z);
             assert_eq!(
-                ray_box(org, inv, 0.0, f32::INFINITY, &b),
+                ray_box(origin, inv, 0.0, f32::INFINITY, &b),
                 None,
-                "{org} {dir}"
+                "{origin} {direction}"
             );
         }
     }
@@ -63,22 +63,22 @@ fn zero_components_clip_by_the_origin_alone() {
     }
     // A flat box with the ray in its plane.
     let flat = Aabb::new(Vec3::new(0.0, 0.0, 2.0), Vec3::new(1.0, 1.0, 2.0));
-    let org = Vec3::new(-1.0, 0.5, 2.0);
+    let origin = Vec3::new(-1.0, 0.5, 2.0);
     assert_eq!(
-        ray_box(org, Vec3::new(1.0, 0.0, 0.0).recip(), 0.0, 9.0, &flat),
+        ray_box(origin, Vec3::new(1.0, 0.0, 0.0).recip(), 0.0, 9.0, &flat),
         Some((1.0, 2.0))
     );
 }
 
 #[test]
 fn nan_interval_and_empty_box_give_nothing() {
-    let (org, inv) = (Vec3::splat(-1.0), Vec3::ONE.recip());
-    assert_eq!(ray_box(org, inv, f32::NAN, 9.0, &unit_box()), None);
-    assert_eq!(ray_box(org, inv, 0.0, f32::NAN, &unit_box()), None);
-    assert_eq!(ray_box(org, inv, 0.0, 9.0, &Aabb::EMPTY), None);
+    let (origin, inv) = (Vec3::splat(-1.0), Vec3::ONE.recip());
+    assert_eq!(ray_box(origin, inv, f32::NAN, 9.0, &unit_box()), None);
+    assert_eq!(ray_box(origin, inv, 0.0, f32::NAN, &unit_box()), None);
+    assert_eq!(ray_box(origin, inv, 0.0, 9.0, &Aabb::EMPTY), None);
     assert_eq!(
         ray_box(
-            org,
+            origin,
             Vec3::new(1.0, 0.0, 0.0).recip(),
             0.0,
             9.0,
@@ -87,18 +87,21 @@ fn nan_interval_and_empty_box_give_nothing() {
         None
     );
     // The interval is clipped to [tmin, tmax].
-    assert_eq!(ray_box(org, inv, 1.5, 1.75, &unit_box()), Some((1.5, 1.75)));
-    assert_eq!(ray_box(org, inv, 2.5, 9.0, &unit_box()), None);
+    assert_eq!(
+        ray_box(origin, inv, 1.5, 1.75, &unit_box()),
+        Some((1.5, 1.75))
+    );
+    assert_eq!(ray_box(origin, inv, 2.5, 9.0, &unit_box()), None);
 }
 
 /// A ray with random zero components (of either sign), its origin sometimes snapped onto the
 /// box's face planes, and a finite interval.
 fn random_ray(rng: &mut Rng, b: &Aabb) -> Ray {
     let mut origin = rng.in_cube(2.0);
-    let mut dir = rng.on_sphere();
+    let mut direction = rng.on_sphere();
     for k in 0..3 {
         if rng.chance(0.3) {
-            dir[k] = if rng.chance(0.5) { 0.0 } else { -0.0 };
+            direction[k] = if rng.chance(0.5) { 0.0 } else { -0.0 };
         }
         if rng.chance(0.3) {
             origin[k] = if rng.chance(0.5) { b.min[k] } else { b.max[k] };
@@ -111,7 +114,7 @@ fn random_ray(rng: &mut Rng, b: &Aabb) -> Ray {
     };
     Ray {
         origin,
-        dir,
+        direction,
         tmin,
         tmax: tmin + rng.range(0.0, 5.0),
     }
@@ -141,8 +144,8 @@ fn intervals_match_point_sampling() {
     for _ in 0..20_000 {
         let b = random_box(&mut rng);
         let ray = random_ray(&mut rng, &b);
-        let got = ray_box(ray.origin, ray.dir.recip(), ray.tmin, ray.tmax, &b);
-        let (o, d) = (ray.origin.as_dvec3(), ray.dir.as_dvec3());
+        let got = ray_box(ray.origin, ray.direction.recip(), ray.tmin, ray.tmax, &b);
+        let (o, d) = (ray.origin.as_dvec3(), ray.direction.as_dvec3());
         let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
         let inside = |t: f64, eps: f64| {
             let p = o + d * t;
@@ -192,13 +195,13 @@ impl LaneTask for LanesVsSingle {
         let mut failures = Vec::new();
         for (group, b) in self.rays.chunks_exact(L::WIDTH).zip(&self.boxes) {
             let lanes = gather(l, group);
-            let inv = lanes.dir.map(|d| l.splat(1.0) / d);
+            let inv = lanes.direction.map(|d| l.splat(1.0) / d);
             let tmin = l.load(&group.iter().map(|r| r.tmin).collect::<Vec<_>>());
             let tmax = l.load(&group.iter().map(|r| r.tmax).collect::<Vec<_>>());
-            let (mask, near, far) = slab_lanes(l, &lanes.org, &inv, tmin, tmax, b);
+            let (mask, near, far) = slab_lanes(l, &lanes.origin, &inv, tmin, tmax, b);
             let (near, far) = (lanes_of(l, near), lanes_of(l, far));
             for (i, ray) in group.iter().enumerate() {
-                let want = ray_box(ray.origin, ray.dir.recip(), ray.tmin, ray.tmax, b);
+                let want = ray_box(ray.origin, ray.direction.recip(), ray.tmin, ray.tmax, b);
                 let hit = mask.bits() >> i & 1 != 0;
                 let agrees = match want {
                     None => !hit,

@@ -18,7 +18,20 @@ pub use stats::BuildStats;
 use crate::{Error, Result};
 
 /// Parameters of the SAH build.
+///
+/// Start from [`BuildParams::default`] and change fields with the `with_*` methods (the struct
+/// is `#[non_exhaustive]`: parameters may be added, so it cannot be written as a literal outside
+/// this crate); the fields stay public to read and assign.
+///
+/// ```
+/// use kdbeam::BuildParams;
+///
+/// let params = BuildParams::default().with_ci_over_ct(0.5).with_leaf_size(2);
+/// assert_eq!((params.ci_over_ct, params.leaf_size), (0.5, 2));
+/// assert!(params.validate().is_ok());
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub struct BuildParams {
     /// Cost of one ray–triangle test over the cost of one traversal step (`Ci / Ct`), the
     /// horizontal axis of Reshetov's Figs. 7–9. Larger values split more: bigger trees, smaller
@@ -53,6 +66,42 @@ impl Default for BuildParams {
 }
 
 impl BuildParams {
+    /// The same parameters with [`ci_over_ct`](BuildParams::ci_over_ct) set.
+    #[must_use]
+    pub const fn with_ci_over_ct(self, ci_over_ct: f32) -> Self {
+        BuildParams { ci_over_ct, ..self }
+    }
+
+    /// The same parameters with [`empty_bonus`](BuildParams::empty_bonus) set.
+    #[must_use]
+    pub const fn with_empty_bonus(self, empty_bonus: f32) -> Self {
+        BuildParams {
+            empty_bonus,
+            ..self
+        }
+    }
+
+    /// The same parameters with [`max_depth`](BuildParams::max_depth) set (`None`: pbrt's rule).
+    #[must_use]
+    pub const fn with_max_depth(self, max_depth: Option<u32>) -> Self {
+        BuildParams { max_depth, ..self }
+    }
+
+    /// The same parameters with [`leaf_size`](BuildParams::leaf_size) set.
+    #[must_use]
+    pub const fn with_leaf_size(self, leaf_size: u32) -> Self {
+        BuildParams { leaf_size, ..self }
+    }
+
+    /// The same parameters with [`exact_search_max`](BuildParams::exact_search_max) set.
+    #[must_use]
+    pub const fn with_exact_search_max(self, exact_search_max: u32) -> Self {
+        BuildParams {
+            exact_search_max,
+            ..self
+        }
+    }
+
     /// Checks every field's range.
     ///
     /// # Errors
@@ -84,6 +133,7 @@ impl BuildParams {
     }
 
     /// The depth limit for `triangles` triangles.
+    #[must_use]
     pub fn depth_limit(&self, triangles: usize) -> u32 {
         self.max_depth
             .unwrap_or_else(|| (8.0 + 1.3 * (triangles.max(1) as f64).log2()).round() as u32)
@@ -132,18 +182,21 @@ pub struct KdTree {
 impl KdTree {
     /// The nodes, root first.
     #[inline(always)]
+    #[must_use]
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
     }
 
     /// Leaf records, indexed by [`Node::leaf_record`].
     #[inline(always)]
+    #[must_use]
     pub fn leaves(&self) -> &[LeafRecord] {
         &self.leaves
     }
 
     /// The triangles of leaf record `leaf`.
     #[inline(always)]
+    #[must_use]
     pub fn leaf_triangles(&self, leaf: &LeafRecord) -> LeafTriangles<'_> {
         let r = leaf.first as usize..(leaf.first + leaf.count) as usize;
         LeafTriangles {
@@ -155,18 +208,21 @@ impl KdTree {
 
     /// The root cell: the mesh's bounding box (empty for an empty mesh).
     #[inline]
+    #[must_use]
     pub fn bounds(&self) -> Aabb {
         self.bounds
     }
 
     /// How many triangles the mesh had.
     #[inline]
+    #[must_use]
     pub fn mesh_triangle_count(&self) -> usize {
         self.mesh_triangles
     }
 
     /// Build statistics.
     #[inline]
+    #[must_use]
     pub fn stats(&self) -> &BuildStats {
         &self.stats
     }
@@ -188,6 +244,7 @@ impl KdTree {
     /// assert!(tree.sah_cost(1.5) < 1.5 * mesh.triangle_count() as f64);
     /// # Ok::<(), kdbeam::Error>(())
     /// ```
+    #[must_use]
     pub fn sah_cost(&self, ci_over_ct: f32) -> f64 {
         stats::sah_cost(&self.nodes, self.bounds, ci_over_ct, |record| {
             self.leaves[record as usize].count

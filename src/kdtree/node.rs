@@ -22,6 +22,7 @@ impl Node {
     /// An inner node splitting `axis` at `split`; its above child is node `above_child`.
     /// Panics if `axis > 2` or `above_child > MAX_NODE_INDEX` (the builder checks first).
     #[inline]
+    #[must_use]
     pub fn inner(axis: usize, split: f32, above_child: u32) -> Node {
         assert!(axis < 3 && above_child <= MAX_NODE_INDEX);
         Node {
@@ -32,6 +33,7 @@ impl Node {
 
     /// A leaf whose triangles are described by leaf record `record`.
     #[inline]
+    #[must_use]
     pub fn leaf(record: u32) -> Node {
         assert!(record <= MAX_NODE_INDEX);
         Node {
@@ -42,30 +44,35 @@ impl Node {
 
     /// Is this a leaf?
     #[inline(always)]
+    #[must_use]
     pub fn is_leaf(self) -> bool {
         self.word & 3 == LEAF
     }
 
     /// The split axis of an inner node (3 for a leaf).
     #[inline(always)]
+    #[must_use]
     pub fn axis(self) -> usize {
         (self.word & 3) as usize
     }
 
     /// The split coordinate of an inner node.
     #[inline(always)]
+    #[must_use]
     pub fn split(self) -> f32 {
         f32::from_bits(self.split_bits)
     }
 
     /// The index of an inner node's above child (its below child is the next node).
     #[inline(always)]
+    #[must_use]
     pub fn above_child(self) -> u32 {
         self.word >> 2
     }
 
     /// The leaf record index of a leaf.
     #[inline(always)]
+    #[must_use]
     pub fn leaf_record(self) -> u32 {
         self.word >> 2
     }

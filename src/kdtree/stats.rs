@@ -70,21 +70,25 @@ pub(super) fn sah_cost(
 
 impl BuildStats {
     /// Mean triangles per non-empty leaf (0 when there are none).
+    #[must_use]
     pub fn mean_leaf_size(&self) -> f64 {
         ratio(self.triangle_refs, self.nonempty_leaves)
     }
 
     /// Nodes per triangle: the tree-size axis of Reshetov's Figs. 7–9.
+    #[must_use]
     pub fn nodes_per_triangle(&self) -> f64 {
         ratio(self.nodes, self.triangles)
     }
 
     /// Bytes per mesh triangle.
+    #[must_use]
     pub fn bytes_per_triangle(&self) -> f64 {
         ratio(self.bytes, self.triangles)
     }
 
     /// Mesh triangles built per second.
+    #[must_use]
     pub fn triangles_per_second(&self) -> f64 {
         self.triangles as f64 / self.build_time.as_secs_f64().max(1e-9)
     }

@@ -22,6 +22,7 @@ pub struct Camera {
 impl Camera {
     /// The standard camera for a scene bounded by `bounds` (an empty box gives an eye at the
     /// origin, every ray then misses).
+    #[must_use]
     pub fn standard(bounds: &Aabb, width: u32, height: u32) -> Self {
         let eye = if bounds.is_empty() {
             Vec3::ZERO
@@ -36,6 +37,7 @@ impl Camera {
 
     /// The primary ray through the centre of pixel `(x, y)`, `t` over `[0, +inf)`.
     #[inline]
+    #[must_use]
     pub fn ray(&self, x: u32, y: u32) -> Ray {
         let half_u = 0.5 * screen(x, self.width);
         let half_v = 0.5 * screen(y, self.height);
@@ -54,17 +56,17 @@ impl Camera {
         for r in 0..rows as usize {
             let half_v = 0.5 * screen(y0 + r as u32, self.height);
             let row = r * cols..(r + 1) * cols;
-            let [dir_x, dir_y, dir_z] = &mut packet.dir;
-            let dirs = dir_x[row.clone()]
+            let [direction_x, direction_y, direction_z] = &mut packet.direction;
+            let directions = direction_x[row.clone()]
                 .iter_mut()
-                .zip(&mut dir_y[row.clone()])
-                .zip(&mut dir_z[row.clone()]);
-            for (c, ((dx, dy), dz)) in dirs.enumerate() {
+                .zip(&mut direction_y[row.clone()])
+                .zip(&mut direction_z[row.clone()]);
+            for (c, ((dx, dy), dz)) in directions.enumerate() {
                 let half_u = 0.5 * screen(x0 + c as u32, self.width);
                 (*dx, *dy, *dz) = unit_direction(half_u, half_v);
             }
-            for (a, org) in packet.org.iter_mut().enumerate() {
-                org[row.clone()].fill(self.eye[a]);
+            for (a, origin) in packet.origin.iter_mut().enumerate() {
+                origin[row.clone()].fill(self.eye[a]);
             }
             packet.tmin[row.clone()].fill(0.0);
             packet.tmax[row].fill(f32::INFINITY);
@@ -85,6 +87,7 @@ impl Camera {
     /// assert_eq!(packets.iter().map(|p| p.len()).sum::<usize>(), 60);
     /// assert_eq!(packets[2].len(), 2 * 4); // the cut tile at the right edge
     /// ```
+    #[must_use]
     pub fn tile_packets(&self, shape: PacketShape) -> Vec<RayPacket> {
         let (tw, th) = (shape.width() as u32, shape.height() as u32);
         let mut packets = Vec::new();
@@ -100,6 +103,7 @@ impl Camera {
     }
 
     /// Every primary ray, row by row.
+    #[must_use]
     pub fn rays(&self) -> Vec<Ray> {
         (0..self.height)
             .flat_map(|y| (0..self.width).map(move |x| self.ray(x, y)))
@@ -154,7 +158,7 @@ mod tests {
             let u = (x as f32 + 0.5) / 64.0 * 2.0 - 1.0;
             let v = (y as f32 + 0.5) / 48.0 * 2.0 - 1.0;
             let want = Vec3::new(0.5 * u, 0.5 * v, 1.0).normalize();
-            assert_eq!(camera.ray(x, y).dir, want, "{x} {y}");
+            assert_eq!(camera.ray(x, y).direction, want, "{x} {y}");
         }
     }
 }

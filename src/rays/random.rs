@@ -17,6 +17,7 @@ use crate::scene::rng::Rng;
 /// assert_eq!(rays, random_rays(&bounds, 100, 7));
 /// assert!(rays.iter().all(|r| bounds.contains(r.origin)));
 /// ```
+#[must_use]
 pub fn random_rays(bounds: &Aabb, count: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Rng::new(seed);
     let (lo, ext) = if bounds.is_empty() {

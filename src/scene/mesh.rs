@@ -104,18 +104,21 @@ impl Mesh {
 
     /// Number of triangles (degenerate ones included).
     #[inline]
+    #[must_use]
     pub fn triangle_count(&self) -> usize {
         self.indices.len()
     }
 
     /// True when there are no triangles.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.indices.is_empty()
     }
 
     /// Triangle `i`. Panics if `i >= triangle_count()`.
     #[inline]
+    #[must_use]
     pub fn triangle(&self, i: usize) -> Triangle {
         let [a, b, c] = self.indices[i];
         Triangle::new(
@@ -126,23 +129,27 @@ impl Mesh {
     }
 
     /// Every triangle, in id order.
+    #[must_use]
     pub fn triangles(&self) -> impl ExactSizeIterator<Item = Triangle> + '_ {
         (0..self.indices.len()).map(|i| self.triangle(i))
     }
 
     /// Vertex positions.
     #[inline]
+    #[must_use]
     pub fn positions(&self) -> &[Vec3] {
         &self.positions
     }
 
     /// Faces, as three vertex indices each.
     #[inline]
+    #[must_use]
     pub fn faces(&self) -> &[[u32; 3]] {
         &self.indices
     }
 
     /// The box around every vertex that some triangle uses (empty for an empty mesh).
+    #[must_use]
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(
             self.indices

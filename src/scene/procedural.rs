@@ -119,6 +119,7 @@ fn validated(positions: Vec<Vec3>, faces: Vec<[u32; 3]>) -> Mesh {
 /// assert_eq!(sphere.triangle_count(), 20 * 64);
 /// assert_eq!(sphere.positions().len(), 10 * 64 + 2);
 /// ```
+#[must_use]
 pub fn icosphere(center: Vec3, radius: f32, subdivisions: u32) -> Mesh {
     let subdivisions = subdivisions.min(MAX_SUBDIVISIONS);
     // The icosahedron: (0, ±1, ±φ) and its cyclic permutations, normalised.
@@ -225,6 +226,7 @@ fn grid<V>(nx: u32, ny: u32, mut vertex: impl FnMut(u32, u32) -> V) -> (Vec<V>, 
 /// let grid = kdbeam::scene::procedural::quad_grid(4, 3, Vec3::ZERO, Vec3::X, Vec3::Y);
 /// assert_eq!(grid.triangle_count(), 2 * 4 * 3);
 /// ```
+#[must_use]
 pub fn quad_grid(nx: u32, ny: u32, origin: Vec3, u: Vec3, v: Vec3) -> Mesh {
     let (sx, sy) = (1.0 / nx.max(1) as f32, 1.0 / ny.max(1) as f32);
     let (positions, faces) = grid(nx, ny, |i, j| {
@@ -245,6 +247,7 @@ pub fn quad_grid(nx: u32, ny: u32, origin: Vec3, u: Vec3, v: Vec3) -> Mesh {
 /// assert_eq!(cube.triangle_count(), 12 * 9);
 /// assert_eq!(cube.positions().len(), 6 * 9 + 2);
 /// ```
+#[must_use]
 pub fn closed_grid_box(n: u32, center: Vec3, half_extent: Vec3) -> Mesh {
     let n = n.min(MAX_GRID_SIDE);
     // Vertices are lattice points (i, j, k) ∈ {0…n}³ on the box's surface, each created once.
@@ -292,6 +295,7 @@ pub fn closed_grid_box(n: u32, center: Vec3, half_extent: Vec3) -> Mesh {
 /// let soup = kdbeam::scene::procedural::triangle_soup(1000, 7);
 /// assert_eq!(soup.triangle_count(), 1000);
 /// ```
+#[must_use]
 pub fn triangle_soup(count: u32, seed: u64) -> Mesh {
     let count = count.min(MAX_RANDOM_TRIANGLES);
     let size = 0.5 / (count.max(1) as f32).cbrt();
@@ -319,6 +323,7 @@ pub fn triangle_soup(count: u32, seed: u64) -> Mesh {
 /// let hair = kdbeam::scene::procedural::hair(1000, 7);
 /// assert_eq!(hair.triangle_count(), 1000);
 /// ```
+#[must_use]
 pub fn hair(count: u32, seed: u64) -> Mesh {
     const LENGTH: f32 = 0.5;
     const HALF_WIDTH: f32 = 0.001;
@@ -368,6 +373,7 @@ fn soup(positions: Vec<Vec3>) -> Mesh {
 /// let terrain = kdbeam::scene::procedural::terrain(64, 1);
 /// assert_eq!(terrain.triangle_count(), 2 * 64 * 64);
 /// ```
+#[must_use]
 pub fn terrain(resolution: u32, seed: u64) -> Mesh {
     let step = 2.0 / resolution.max(1) as f32;
     // i runs along +z and j along +x, so the grid's counter-clockwise side faces +y (z × x = y).
@@ -384,6 +390,7 @@ pub fn terrain(resolution: u32, seed: u64) -> Mesh {
 /// octaves of value noise (each octave twice the frequency and half the amplitude of the one
 /// before, values in [−1, 1]) on a lattice hashed with `seed`. Uses only `+`, `×` and `floor`, so
 /// it is the same on every platform. Outside the terrain's domain it continues smoothly.
+#[must_use]
 pub fn terrain_height(x: f32, z: f32, seed: u64) -> f32 {
     let (s, t) = (x.abs(), 0.5 * z);
     let shape = 1.5 * t * t * t + 0.5 * s * s * s * s;
@@ -438,6 +445,7 @@ fn lattice_value(ix: i32, iz: i32, seed: u64, octave: u32) -> f32 {
 ///
 /// Fixed: no seed (the terrain uses [`BUILTIN_SEED`]). Triangle ids: the terrain first, then the
 /// spheres from the largest.
+#[must_use]
 pub fn default_scene() -> Mesh {
     // (x, z, radius, subdivisions): spheres sit on the floor, sunk by a fifth of their radius.
     const SPHERES: [(f32, f32, f32, u32); 10] = [

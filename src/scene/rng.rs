@@ -43,6 +43,7 @@ impl Rng {
     ///
     /// The seed is first scrambled with SplitMix64 (Steele, Lea & Flood 2014), so that nearby seeds
     /// (0, 1, 2, …) start far apart in the sequence. Every `u64`, 0 included, is a valid seed.
+    #[must_use]
     pub fn new(seed: u64) -> Rng {
         let mut z = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
         z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);

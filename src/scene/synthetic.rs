@@ -186,9 +186,9 @@ fn random_triangle(rng: &mut Rng, edge: f32, normal_min_z: f32) -> Triangle {
 
 /// The rays of one `n × n` packet, row by row, crossing `z = 0` on the grid of side `side`
 /// centred at `(cx, cy)`.
-fn packet_rays(dir: Vec3, cx: f32, cy: f32, side: f32, n: usize, tmax: f32) -> Vec<Ray> {
+fn packet_rays(direction: Vec3, cx: f32, cy: f32, side: f32, n: usize, tmax: f32) -> Vec<Ray> {
     let step = side / n as f32;
-    let back = dir / dir.z;
+    let back = direction / direction.z;
     (0..n * n)
         .map(|k| {
             let (i, j) = (k % n, k / n);
@@ -199,7 +199,7 @@ fn packet_rays(dir: Vec3, cx: f32, cy: f32, side: f32, n: usize, tmax: f32) -> V
             );
             Ray {
                 origin: on_face - back,
-                dir,
+                direction,
                 tmin: 0.0,
                 tmax,
             }
@@ -224,9 +224,9 @@ pub fn generate(params: &SyntheticParams) -> Result<SyntheticCell> {
     for _ in 0..params.packets {
         let tilt_x = rng.range(-MAX_TILT, MAX_TILT);
         let tilt_y = rng.range(-MAX_TILT, MAX_TILT);
-        let dir = Vec3::new(tilt_x, tilt_y, 1.0).normalize();
+        let direction = Vec3::new(tilt_x, tilt_y, 1.0).normalize();
         let (cx, cy) = (rng.next_f32(), rng.next_f32());
-        let rays = packet_rays(dir, cx, cy, params.jitter, n, params.tmax);
+        let rays = packet_rays(direction, cx, cy, params.jitter, n, params.tmax);
         if n * n <= MAX_PACKET_RAYS {
             packets.push(RayPacket::from_rays(&rays));
         } else {
@@ -267,6 +267,7 @@ pub fn generate(params: &SyntheticParams) -> Result<SyntheticCell> {
 /// f32 Kensler–Shirley test: every ray against every triangle, not only closest hits.
 ///
 /// 0 for a cell without rays or triangles.
+#[must_use]
 pub fn hit_rate(cell: &SyntheticCell) -> f64 {
     use kdbeam_kernels::intersect::kensler_shirley::intersect;
     let mut hits = 0u64;
@@ -356,9 +357,9 @@ mod tests {
             let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
             for i in 0..p.len() {
                 let r = p.ray(i);
-                assert_eq!(r.dir, r0.dir);
+                assert_eq!(r.direction, r0.direction);
                 assert!((r.origin.z + 1.0).abs() < 1e-6);
-                let on_face = r.origin + r.dir / r.dir.z;
+                let on_face = r.origin + r.direction / r.direction.z;
                 lo = lo.min(on_face);
                 hi = hi.max(on_face);
             }

@@ -58,7 +58,13 @@ pub enum Frustum {
 /// Every stage is conservative: the closest hit of every ray, its `t` and its triangle id are
 /// the same as without culling (the differential tests check this on every ISA and packet
 /// size).
+///
+/// Start from a preset ([`Culling::AUTO`], [`Culling::FULL`], [`Culling::planes`], …) or parse
+/// the grammar of its `FromStr`, and change it with the `with_*` methods (the struct is
+/// `#[non_exhaustive]`: stages may be added, so it cannot be written as a literal outside this
+/// crate); the fields stay public to read and assign.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub struct Culling {
     /// Frustum planes.
     pub planes: Planes,
@@ -136,6 +142,7 @@ impl Culling {
     ];
 
     /// Fixed planes and aperture on every leaf visit, maskless.
+    #[must_use]
     pub const fn planes(planes: Planes, aperture: bool) -> Culling {
         Culling {
             planes,
@@ -145,11 +152,13 @@ impl Culling {
     }
 
     /// The same setting with another frustum.
+    #[must_use]
     pub const fn with_frustum(self, frustum: Frustum) -> Culling {
         Culling { frustum, ..self }
     }
 
     /// The same setting with the aperture test before (true) or after the near/far planes.
+    #[must_use]
     pub const fn with_aperture_first(self, aperture_first: bool) -> Culling {
         Culling {
             aperture_first,
@@ -157,7 +166,23 @@ impl Culling {
         }
     }
 
+    /// The same setting with another [`min_triangles`](Culling::min_triangles).
+    #[must_use]
+    pub const fn with_min_triangles(self, min_triangles: u32) -> Culling {
+        Culling {
+            min_triangles,
+            ..self
+        }
+    }
+
+    /// The same setting with another [`min_rays`](Culling::min_rays).
+    #[must_use]
+    pub const fn with_min_rays(self, min_rays: u32) -> Culling {
+        Culling { min_rays, ..self }
+    }
+
     /// Is any beam built at all?
+    #[must_use]
     pub fn is_enabled(&self) -> bool {
         self.planes != Planes::None
     }
@@ -199,6 +224,7 @@ impl Culling {
     /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
+    #[must_use]
     pub fn name(&self) -> String {
         let options = |base: &Culling| {
             let mut options = Vec::new();
@@ -263,6 +289,7 @@ impl Frustum {
 
     /// Its option in the culling grammar, without the `/`: `maskless`, `masked`, `adaptive`,
     /// `packet`.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Frustum::Maskless => "maskless",

@@ -43,6 +43,7 @@ impl Intersector {
     pub const ALL: [Intersector; 2] = [Intersector::KenslerShirley, Intersector::Watertight];
 
     /// `kensler_shirley` or `watertight`.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Intersector::KenslerShirley => "kensler_shirley",
@@ -90,6 +91,7 @@ pub struct Tracer<'t> {
 impl<'t> Tracer<'t> {
     /// A tracer with the default intersector on the widest ISA this CPU runs, or the one
     /// `KDBEAM_ISA` names when that is valid and available.
+    #[must_use]
     pub fn new(tree: &'t KdTree) -> Self {
         Tracer {
             tree,
@@ -109,11 +111,13 @@ impl<'t> Tracer<'t> {
     }
 
     /// The same tracer on an ISA already checked.
+    #[must_use]
     pub fn with_dispatch(self, dispatch: Dispatch) -> Self {
         Tracer { dispatch, ..self }
     }
 
     /// The same tracer with another intersector.
+    #[must_use]
     pub fn with_intersector(self, intersector: Intersector) -> Self {
         Tracer {
             intersector,
@@ -122,37 +126,44 @@ impl<'t> Tracer<'t> {
     }
 
     /// The same tracer, cutting streams into packets of `packet`.
+    #[must_use]
     pub fn with_packet(self, packet: PacketShape) -> Self {
         Tracer { packet, ..self }
     }
 
     /// The same tracer with another culling setting (packets only: single rays are never
     /// culled).
+    #[must_use]
     pub fn with_culling(self, culling: Culling) -> Self {
         Tracer { culling, ..self }
     }
 
     /// The culling setting.
+    #[must_use]
     pub fn culling(&self) -> Culling {
         self.culling
     }
 
     /// The packet shape streams are cut into.
+    #[must_use]
     pub fn packet(&self) -> PacketShape {
         self.packet
     }
 
     /// The tree.
+    #[must_use]
     pub fn tree(&self) -> &'t KdTree {
         self.tree
     }
 
     /// The ISA packets run on.
+    #[must_use]
     pub fn isa(&self) -> Isa {
         self.dispatch.isa()
     }
 
     /// The intersector.
+    #[must_use]
     pub fn intersector(&self) -> Intersector {
         self.intersector
     }
@@ -160,11 +171,13 @@ impl<'t> Tracer<'t> {
     /// The closest hit of one ray, on the scalar path: [`Hit::NONE`] for a miss or a ray that
     /// cannot be traced (non-finite or zero direction, NaN origin, `tmin > tmax`). Equal `t`
     /// goes to the smaller triangle id.
+    #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Hit {
         self.intersect_counted(ray).0
     }
 
     /// [`Tracer::intersect`], with its traversal counters.
+    #[must_use]
     pub fn intersect_counted(&self, ray: &Ray) -> (Hit, RayCounters) {
         match self.intersector {
             Intersector::KenslerShirley => single::closest_hit(self.tree, ray, &KsTest),
@@ -175,6 +188,7 @@ impl<'t> Tracer<'t> {
     }
 
     /// Is anything hit in `[tmin, tmax]`? (Shadow rays.) `false` for a ray that cannot be traced.
+    #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
         match self.intersector {
             Intersector::KenslerShirley => single::any_hit(self.tree, ray, &KsTest).0,
@@ -289,6 +303,7 @@ impl<'t> Tracer<'t> {
     /// as a bit mask: [`Tracer::occluded`] of each ray, except that with [`Frustum::Packet`] a
     /// ray may also be reported occluded by a real hit that only the whole-packet traversal's
     /// extra tests find (see [`Tracer::intersect_packet`]).
+    #[must_use]
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
         match (self.intersector, self.culling.interval_traversal()) {
             (Intersector::KenslerShirley, false) => {

@@ -29,6 +29,7 @@ impl ReferenceHit {
 /// The closest hit of `ray` over every triangle of `mesh`, by the f64 oracle, in
 /// `[ray.tmin, ray.tmax]`; equal `t` goes to the smaller id. `None` for a miss or a ray that
 /// cannot be traced (see [`crate::Tracer::intersect`]).
+#[must_use]
 pub fn brute_force(mesh: &Mesh, ray: &Ray) -> Option<ReferenceHit> {
     if !single::is_traceable(ray) {
         return None;
@@ -52,6 +53,7 @@ pub fn brute_force(mesh: &Mesh, ray: &Ray) -> Option<ReferenceHit> {
 
 /// The closest hit of `ray` through `tree`, each leaf tested by the f64 oracle: equal to
 /// [`brute_force`] when the tree is right (the kd-tree tests check exactly that).
+#[must_use]
 pub fn kd_oracle(tree: &KdTree, ray: &Ray) -> Option<ReferenceHit> {
     struct Oracle {
         ray: OracleRay,

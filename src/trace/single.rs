@@ -21,10 +21,11 @@ pub(crate) trait LeafVisitor {
 /// Can this ray be traced? Finite origin and direction, a non-zero direction and
 /// `tmin <= tmax` (`tmax` may be `+inf`). Every other ray reports a miss on every path.
 #[inline(always)]
+#[must_use]
 pub fn is_traceable(ray: &Ray) -> bool {
     ray.origin.is_finite()
-        && ray.dir.is_finite()
-        && ray.dir != Vec3::ZERO
+        && ray.direction.is_finite()
+        && ray.direction != Vec3::ZERO
         && ray.tmin <= ray.tmax
         && !ray.tmax.is_nan()
 }
@@ -42,7 +43,7 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
     if !is_traceable(ray) {
         return;
     }
-    let inv = ray.dir.recip();
+    let inv = ray.direction.recip();
     let Some((mut t_enter, mut t_exit)) =
         slab::ray_box(ray.origin, inv, ray.tmin, ray.tmax, &root_bounds(tree))
     else {
@@ -60,7 +61,7 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
                 let axis = node.axis();
                 let t_split = (node.split() - ray.origin[axis]) * inv[axis];
                 let err = LaneF32::min((ray.origin[axis] * inv[axis]).abs(), f32::MAX);
-                let (near, far) = if ray.dir[axis].is_sign_negative() {
+                let (near, far) = if ray.direction[axis].is_sign_negative() {
                     (node.above_child(), node_index + 1)
                 } else {
                     (node_index + 1, node.above_child())

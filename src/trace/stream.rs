@@ -141,8 +141,10 @@ fn is_coherent(p: &RayPacket) -> bool {
 fn sort_incoherent(rays: &[Ray], order: &mut [u32]) {
     let key = |&i: &u32| {
         let r = &rays[i as usize];
-        let octant = (0..3).fold(0u32, |o, a| o | (r.dir[a].is_sign_negative() as u32) << a);
-        let d = r.dir.normalize_or_zero().abs();
+        let octant = (0..3).fold(0u32, |o, a| {
+            o | (r.direction[a].is_sign_negative() as u32) << a
+        });
+        let d = r.direction.normalize_or_zero().abs();
         let cell = |x: f32| (x * 7.99).clamp(0.0, 7.0) as u32;
         (octant << 9) | (cell(d.x) << 6) | (cell(d.y) << 3) | cell(d.z)
     };

@@ -42,6 +42,7 @@ pub struct Measurement {
 
 impl Measurement {
     /// Share of the potential tests culling eliminated, in percent.
+    #[must_use]
     pub fn eliminated_percent(&self) -> f64 {
         100.0 * (1.0 - self.tests as f64 / self.potential_tests.max(1) as f64)
     }

@@ -56,36 +56,36 @@ pub fn adversarial_rays(mesh: &Mesh, count: usize, seed: u64) -> Vec<Ray> {
         let kind = rng.below(8);
         let tri = mesh.triangle(rng.below(n as u32) as usize);
         let on_surface = tri.v0 * 0.25 + tri.v1 * 0.25 + tri.v2 * 0.5;
-        let mut dir = rng.unit_vector();
+        let mut direction = rng.unit_vector();
         let origin = match kind {
             0 => on_surface,
             1 => tri.v0,
             2 => {
                 // Axis-parallel, through a vertex, from outside the box.
                 let axis = rng.below(3) as usize;
-                dir = Vec3::ZERO;
-                dir[axis] = 1.0;
+                direction = Vec3::ZERO;
+                direction[axis] = 1.0;
                 let mut o = tri.v1;
                 o[axis] = b.min[axis] - 1.0;
                 o
             }
             3 => {
-                dir[rng.below(3) as usize] = 0.0;
-                dir[rng.below(3) as usize] = -0.0;
-                on_surface - dir
+                direction[rng.below(3) as usize] = 0.0;
+                direction[rng.below(3) as usize] = -0.0;
+                on_surface - direction
             }
             4 => Vec3::new(f32::NAN, 0.0, 0.0),
             5 => {
-                dir = Vec3::ZERO;
+                direction = Vec3::ZERO;
                 on_surface
             }
             6 => {
-                dir = Vec3::new(f32::INFINITY, 1.0, 0.0);
+                direction = Vec3::new(f32::INFINITY, 1.0, 0.0);
                 on_surface
             }
-            _ => on_surface - dir,
+            _ => on_surface - direction,
         };
-        let mut r = Ray::new(origin, dir);
+        let mut r = Ray::new(origin, direction);
         if kind == 7 && rng.below(4) == 0 {
             r.tmin = 1.0;
             r.tmax = 0.5;

@@ -151,34 +151,32 @@ fn decode_scene(data: &[u8]) -> (Mesh, BuildParams, Vec<Ray>, u64) {
         .collect();
     let mesh = Mesh::from_indexed(&positions, &indices).expect("lattice coordinates are finite");
     let p = b.u8();
-    let params = BuildParams {
-        ci_over_ct: [0.1, 1.0, 1.5, 10.0][usize::from(p & 3)],
-        leaf_size: u32::from(p >> 2 & 3) + 1,
-        max_depth: (p & 0x80 != 0).then_some(u32::from(p >> 4 & 7)),
-        ..BuildParams::default()
-    };
+    let params = BuildParams::default()
+        .with_ci_over_ct([0.1, 1.0, 1.5, 10.0][usize::from(p & 3)])
+        .with_leaf_size(u32::from(p >> 2 & 3) + 1)
+        .with_max_depth((p & 0x80 != 0).then_some(u32::from(p >> 4 & 7)));
     let active = b.u64();
     let mut rays = Vec::new();
     while !b.is_empty() && rays.len() < 200 {
         let flags = b.u8();
         let origin = Vec3::from([(); 3].map(|_| b.lattice(scale, offset)));
-        let mut dir = Vec3::from([(); 3].map(|_| f32::from(b.u8() as i8)));
-        let mut ray = Ray::new(origin, dir);
+        let mut direction = Vec3::from([(); 3].map(|_| f32::from(b.u8() as i8)));
+        let mut ray = Ray::new(origin, direction);
         match flags & 7 {
             1 => ray.origin[usize::from(flags >> 3) % 3] = f32::NAN,
-            2 => dir[usize::from(flags >> 3) % 3] = f32::INFINITY,
+            2 => direction[usize::from(flags >> 3) % 3] = f32::INFINITY,
             3 => {
                 // Axis-parallel, with signed zeros elsewhere.
                 let axis = usize::from(flags >> 3) % 3;
-                dir = Vec3::splat(if flags & 0x40 != 0 { -0.0 } else { 0.0 });
-                dir[axis] = if flags & 0x80 != 0 { -1.0 } else { 1.0 };
+                direction = Vec3::splat(if flags & 0x40 != 0 { -0.0 } else { 0.0 });
+                direction[axis] = if flags & 0x80 != 0 { -1.0 } else { 1.0 };
             }
             4 => (ray.tmin, ray.tmax) = (1.0, 0.5),
             5 => (ray.tmin, ray.tmax) = (0.5, 0.5),
             6 => ray.tmax = f32::NAN,
             _ => {}
         }
-        ray.dir = dir;
+        ray.direction = direction;
         rays.push(ray);
     }
     (mesh, params, rays, active)

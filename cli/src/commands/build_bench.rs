@@ -116,11 +116,9 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                 .map(move |&exact_search_max| (ci_over_ct, exact_search_max))
         });
         for (ci_over_ct, exact_search_max) in settings {
-            let params = BuildParams {
-                ci_over_ct,
-                exact_search_max,
-                ..BuildParams::default()
-            };
+            let params = BuildParams::default()
+                .with_ci_over_ct(ci_over_ct)
+                .with_exact_search_max(exact_search_max);
             params.validate()?;
             let (build, rebuild, sah_cost, frame) =
                 pool.install(|| -> Result<(f64, f64, f64, f64)> {

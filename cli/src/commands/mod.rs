@@ -95,12 +95,10 @@ fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
 }
 
 fn build_tree(mesh: &Mesh, args: &TreeArgs) -> Result<KdTree> {
-    let params = BuildParams {
-        ci_over_ct: args.ci_over_ct,
-        empty_bonus: args.empty_bonus,
-        exact_search_max: args.exact_search_max,
-        ..BuildParams::default()
-    };
+    let params = BuildParams::default()
+        .with_ci_over_ct(args.ci_over_ct)
+        .with_empty_bonus(args.empty_bonus)
+        .with_exact_search_max(args.exact_search_max);
     Ok(with_spinner("building kd-tree", || {
         KdTree::build(mesh, &params)
     })?)

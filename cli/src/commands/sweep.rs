@@ -96,10 +96,7 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
     }
     let mut points = Vec::new();
     for &ci in &ratios {
-        let params = BuildParams {
-            ci_over_ct: ci,
-            ..BuildParams::default()
-        };
+        let params = BuildParams::default().with_ci_over_ct(ci);
         let tree = with_spinner("building kd-tree", || KdTree::build(&mesh, &params))?;
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
         for (label, culling) in cullings {

@@ -336,7 +336,7 @@ impl RayHitPacket for sys::RTCRayHit {
     fn set_ray(&mut self, _lane: usize, ray: &Ray) {
         let r = &mut self.ray;
         (r.org_x, r.org_y, r.org_z) = (ray.origin.x, ray.origin.y, ray.origin.z);
-        (r.dir_x, r.dir_y, r.dir_z) = (ray.dir.x, ray.dir.y, ray.dir.z);
+        (r.dir_x, r.dir_y, r.dir_z) = (ray.direction.x, ray.direction.y, ray.direction.z);
         (r.tnear, r.tfar) = (ray.tmin, ray.tmax);
         (self.hit.primID, self.hit.geomID) = (INVALID_ID, INVALID_ID);
     }
@@ -429,9 +429,9 @@ macro_rules! ray_hit_packet {
                 r.org_y[lane] = ray.origin.y;
                 r.org_z[lane] = ray.origin.z;
                 r.tnear[lane] = ray.tmin;
-                r.dir_x[lane] = ray.dir.x;
-                r.dir_y[lane] = ray.dir.y;
-                r.dir_z[lane] = ray.dir.z;
+                r.dir_x[lane] = ray.direction.x;
+                r.dir_y[lane] = ray.direction.y;
+                r.dir_z[lane] = ray.direction.z;
                 r.tfar[lane] = ray.tmax;
                 self.hit.primID[lane] = INVALID_ID;
                 self.hit.geomID[lane] = INVALID_ID;

@@ -7,7 +7,7 @@ use kdbeam::{Hit, Mesh, Ray, Vec3};
 /// The normal is the geometric normal of the hit triangle, turned to face the ray. Degenerate
 /// triangles never produce hits, so the normal is always defined.
 pub fn shade(mesh: &Mesh, ray: &Ray, hit: &Hit) -> [f32; 3] {
-    let d = ray.dir.normalize_or_zero();
+    let d = ray.direction.normalize_or_zero();
     if !hit.is_hit() {
         let k = 0.5 * (1.0 - d.y);
         return (Vec3::new(0.55, 0.65, 0.85) * (1.0 - k) + Vec3::new(0.9, 0.92, 0.95) * k).into();

@@ -38,8 +38,9 @@ use crate::triangle::KsTriangle;
 /// both after rounding; use the watertight test where that matters). `ray.tmin`/`ray.tmax` are
 /// ignored in favour of the arguments. Degenerate triangles (`n = 0`) and NaN rays never hit.
 #[inline(always)]
+#[must_use]
 pub fn intersect(ray: &Ray, tri: &KsTriangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
-    let d = ray.dir.to_array();
+    let d = ray.direction.to_array();
     let n = tri.n.to_array();
     let c = sub3(tri.p0.to_array(), ray.origin.to_array());
     let r = 1.0 / dot3(n, d);
@@ -66,10 +67,10 @@ pub fn intersect_lanes<L: Lanes>(
     tmax: L::F32,
 ) -> LaneHits<L> {
     let n = splat3(l, tri.n);
-    let c = sub3(splat3(l, tri.p0), rays.org);
-    let r = l.splat(1.0) / dot3(n, rays.dir);
+    let c = sub3(splat3(l, tri.p0), rays.origin);
+    let r = l.splat(1.0) / dot3(n, rays.direction);
     let t = dot3(n, c) * r;
-    let w = cross3(c, rays.dir);
+    let w = cross3(c, rays.direction);
     let u = dot3(w, splat3(l, tri.e1)) * r;
     let v = dot3(w, splat3(l, tri.e0)) * r;
     let zero = l.splat(0.0);

@@ -36,27 +36,27 @@ pub struct TriangleHit {
     pub v: f32,
 }
 
-/// `WIDTH` rays in structure-of-arrays form: lane `i` of `org[k]` is component `k` of ray `i`'s
+/// `WIDTH` rays in structure-of-arrays form: lane `i` of `origin[k]` is component `k` of ray `i`'s
 /// origin.
 #[derive(Clone, Copy, Debug)]
 pub struct LaneRays<L: Lanes> {
     /// Origins, per axis.
-    pub org: [L::F32; 3],
+    pub origin: [L::F32; 3],
     /// Directions (any length), per axis.
-    pub dir: [L::F32; 3],
+    pub direction: [L::F32; 3],
 }
 
 impl<L: Lanes> LaneRays<L> {
     /// The origin of lane `i`. Panics if `i >= L::WIDTH`.
     #[inline(always)]
     pub fn origin(&self, i: usize) -> Vec3 {
-        Vec3::from_array(self.org.map(|c| c.extract(i)))
+        Vec3::from_array(self.origin.map(|c| c.extract(i)))
     }
 
     /// The direction of lane `i`. Panics if `i >= L::WIDTH`.
     #[inline(always)]
     pub fn direction(&self, i: usize) -> Vec3 {
-        Vec3::from_array(self.dir.map(|c| c.extract(i)))
+        Vec3::from_array(self.direction.map(|c| c.extract(i)))
     }
 }
 

@@ -27,7 +27,7 @@ pub struct OracleHit {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OracleRay {
     /// The origin.
-    org: DVec3,
+    origin: DVec3,
     /// `(kx, ky, kz)`: `kz` the axis of the largest `|d|`, `kx, ky` the next two (swapped when
     /// `d[kz] < 0`).
     axes: [usize; 3],
@@ -38,8 +38,9 @@ pub struct OracleRay {
 impl OracleRay {
     /// Prepares `ray` (converted exactly to `f64`; its `tmin`/`tmax` are not used). A ray whose
     /// direction has a NaN or infinite component never hits.
+    #[must_use]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir.as_dvec3();
+        let d = ray.direction.as_dvec3();
         let a = d.abs();
         let kz = if a.x > a.y && a.x > a.z {
             0
@@ -54,13 +55,13 @@ impl OracleRay {
         }
         let [kx, ky, _] = axes;
         // An infinite direction names no point at a finite `t > 0`: poison the ray.
-        let org = if d[kz].is_finite() {
+        let origin = if d[kz].is_finite() {
             ray.origin.as_dvec3()
         } else {
             DVec3::NAN
         };
         OracleRay {
-            org,
+            origin,
             axes,
             shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
         }
@@ -68,11 +69,12 @@ impl OracleRay {
 
     /// The hit with `tmin <= t <= tmax`, if any (edges and vertices included, both windings).
     /// Degenerate triangles (`det = 0`) and rays with NaN never hit.
+    #[must_use]
     pub fn intersect(&self, tri: &Triangle, tmin: f64, tmax: f64) -> Option<OracleHit> {
         let [kx, ky, kz] = self.axes;
         let [sx, sy, sz] = self.shear;
         let project = |p: DVec3| {
-            let a = p - self.org;
+            let a = p - self.origin;
             (a[kx] - sx * a[kz], a[ky] - sy * a[kz], sz * a[kz])
         };
         let (ax, ay, az) = project(tri.v0.as_dvec3());

@@ -55,7 +55,7 @@ pub struct WatertightRay {
     /// `(kx, ky, kz)`.
     axes: [usize; 3],
     /// The origin, permuted to `(kx, ky, kz)` (NaN for a direction with an infinite component).
-    org: [f32; 3],
+    origin: [f32; 3],
     /// `(Sx, Sy, Sz)`.
     shear: [f32; 3],
 }
@@ -112,7 +112,7 @@ impl WatertightRay {
     /// Prepares `ray` (its `tmin`/`tmax` are not used: [`WatertightRay::intersect`] takes them).
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let d = ray.dir.to_array();
+        let d = ray.direction.to_array();
         let kz = dominant_axis(d.map(LaneF32::abs));
         let (kx, ky) = if d[kz] < 0.0 {
             ((kz + 2) % 3, (kz + 1) % 3)
@@ -123,7 +123,7 @@ impl WatertightRay {
         let finite = LaneF32::abs(d[kz]) < f32::INFINITY;
         WatertightRay {
             axes,
-            org: axes.map(|k| if finite { ray.origin[k] } else { f32::NAN }),
+            origin: axes.map(|k| if finite { ray.origin[k] } else { f32::NAN }),
             shear: shear_of(axes.map(|k| d[k]), 1.0),
         }
     }
@@ -134,9 +134,9 @@ impl WatertightRay {
         // Written out, not `array::map`, whose closure stays out of line.
         let [kx, ky, kz] = self.axes;
         let a = [
-            p[kx] - self.org[0],
-            p[ky] - self.org[1],
-            p[kz] - self.org[2],
+            p[kx] - self.origin[0],
+            p[ky] - self.origin[1],
+            p[kz] - self.origin[2],
         ];
         shear_vertex(a, &self.shear)
     }
@@ -147,6 +147,7 @@ impl WatertightRay {
     /// it never misses both). Both windings hit. Triangles with two equal vertices and rays with
     /// NaN never hit (collinear distinct vertices: see the [module](super) documentation).
     #[inline(always)]
+    #[must_use]
     pub fn intersect(&self, tri: &Triangle, tmin: f32, tmax: f32) -> Option<TriangleHit> {
         let [a, b, c] = [
             self.project(tri.v0),
@@ -206,7 +207,7 @@ pub struct WatertightLanes<L: Lanes> {
     /// `(kx, ky, kz)` per lane.
     axes: [LaneAxis<L>; 3],
     /// The origins, permuted per lane (NaN in lanes whose direction has an infinite component).
-    org: [L::F32; 3],
+    origin: [L::F32; 3],
     /// `(Sx, Sy, Sz)` per lane.
     shear: [L::F32; 3],
 }
@@ -215,7 +216,11 @@ impl<L: Lanes> WatertightLanes<L> {
     /// Prepares `rays`; lane `i` makes the choices [`WatertightRay::new`] makes for ray `i`.
     #[inline(always)]
     pub fn new(l: L, rays: &LaneRays<L>) -> Self {
-        let a = [rays.dir[0].abs(), rays.dir[1].abs(), rays.dir[2].abs()];
+        let a = [
+            rays.direction[0].abs(),
+            rays.direction[1].abs(),
+            rays.direction[2].abs(),
+        ];
         // `dominant_axis` as masks: x when |dx| > |dy| and |dx| > |dz|, y when |dy| >= |dx| and
         // |dy| > |dz|, z otherwise.
         let x_over_y = a[0].gt(a[1]);
@@ -234,7 +239,7 @@ impl<L: Lanes> WatertightLanes<L> {
             is_x: z_is_y,
             is_y: z_is_z,
         };
-        let flip = kz.pick(rays.dir).lt(l.splat(0.0));
+        let flip = kz.pick(rays.direction).lt(l.splat(0.0));
         let axes = [
             LaneAxis::choose(flip, after_next, next),
             LaneAxis::choose(flip, next, after_next),
@@ -242,13 +247,17 @@ impl<L: Lanes> WatertightLanes<L> {
         ];
         let finite = kz.pick(a).lt(l.splat(f32::INFINITY));
         let nan = l.splat(f32::NAN);
-        let org = |k: &LaneAxis<L>| L::F32::select(finite, k.pick(rays.org), nan);
+        let origin = |k: &LaneAxis<L>| L::F32::select(finite, k.pick(rays.origin), nan);
         let [kx, ky, kz] = &axes;
         WatertightLanes {
             axes,
-            org: [org(kx), org(ky), org(kz)],
+            origin: [origin(kx), origin(ky), origin(kz)],
             shear: shear_of(
-                [kx.pick(rays.dir), ky.pick(rays.dir), kz.pick(rays.dir)],
+                [
+                    kx.pick(rays.direction),
+                    ky.pick(rays.direction),
+                    kz.pick(rays.direction),
+                ],
                 l.splat(1.0),
             ),
         }
@@ -258,7 +267,7 @@ impl<L: Lanes> WatertightLanes<L> {
     #[inline(always)]
     fn project(&self, l: L, p: Vec3) -> [L::F32; 3] {
         let p = splat3(l, p);
-        let ([kx, ky, kz], [ox, oy, oz]) = (&self.axes, self.org);
+        let ([kx, ky, kz], [ox, oy, oz]) = (&self.axes, self.origin);
         let a = [kx.pick(p) - ox, ky.pick(p) - oy, kz.pick(p) - oz];
         shear_vertex(a, &self.shear)
     }

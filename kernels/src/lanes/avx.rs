@@ -20,6 +20,7 @@ impl Avx {
     /// The token, if this CPU supports AVX2 and FMA.
     #[cfg(feature = "std")]
     #[inline]
+    #[must_use]
     pub fn try_new() -> Option<Self> {
         Isa::Avx2.is_available().then_some(Avx { _proof: () })
     }
@@ -30,6 +31,7 @@ impl Avx {
     ///
     /// The CPU running the program must support AVX2 and FMA: every vector operation made through
     /// this token executes AVX, AVX2 or FMA instructions.
+    #[must_use]
     pub const unsafe fn new_unchecked() -> Self {
         Avx { _proof: () }
     }

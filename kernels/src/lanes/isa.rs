@@ -22,6 +22,7 @@ impl Isa {
     pub const ALL: [Isa; 4] = [Isa::Scalar, Isa::Portable, Isa::Sse, Isa::Avx2];
 
     /// Lanes per vector.
+    #[must_use]
     pub const fn width(self) -> usize {
         match self {
             Isa::Scalar => 1,
@@ -31,6 +32,7 @@ impl Isa {
     }
 
     /// The name `KDBEAM_ISA` and the CLI accept: `scalar`, `portable`, `sse`, `avx2`.
+    #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
             Isa::Scalar => "scalar",
@@ -43,6 +45,7 @@ impl Isa {
     /// Can this CPU run it? Detected once per call site by `std_detect`'s cache.
     #[cfg(feature = "std")]
     #[inline]
+    #[must_use]
     pub fn is_available(self) -> bool {
         match self {
             Isa::Scalar | Isa::Portable => true,
@@ -59,6 +62,7 @@ impl Isa {
 
     /// The widest ISA this CPU runs.
     #[cfg(feature = "std")]
+    #[must_use]
     pub fn detect() -> Isa {
         Isa::ALL
             .into_iter()

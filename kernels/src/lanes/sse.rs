@@ -19,6 +19,7 @@ impl Sse {
     /// The token, if this CPU supports SSE4.1.
     #[cfg(feature = "std")]
     #[inline]
+    #[must_use]
     pub fn try_new() -> Option<Self> {
         Isa::Sse.is_available().then_some(Sse { _proof: () })
     }
@@ -29,6 +30,7 @@ impl Sse {
     ///
     /// The CPU running the program must support SSE4.1: every vector operation made through this
     /// token executes SSE4.1 instructions.
+    #[must_use]
     pub const unsafe fn new_unchecked() -> Self {
         Sse { _proof: () }
     }

@@ -15,6 +15,7 @@ use glam::Vec3A;
 /// assert_eq!(truncate_to_i32(glam::Vec3A::new(0.0, 2.99, 31.5)), [0, 2, 31]);
 /// ```
 #[inline]
+#[must_use]
 pub fn truncate_to_i32(v: Vec3A) -> [i32; 3] {
     #[cfg(target_arch = "x86_64")]
     {

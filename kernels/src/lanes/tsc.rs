@@ -10,6 +10,7 @@
 /// Readings on different cores are only comparable where the OS keeps the counters in sync
 /// (Linux does on invariant-TSC CPUs).
 #[inline]
+#[must_use]
 pub fn tsc() -> Option<u64> {
     #[cfg(target_arch = "x86_64")]
     {

@@ -118,9 +118,9 @@ pub fn ray_through(rng: &mut Rng, tri: &Triangle, target: Vec3) -> Ray {
     let n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).normalize();
     loop {
         let origin = target + rng.on_sphere() * rng.range(1.0, 4.0);
-        let dir = target - origin;
-        if n.dot(dir.normalize()).abs() >= 0.1 {
-            return Ray::new(origin, dir);
+        let direction = target - origin;
+        if n.dot(direction.normalize()).abs() >= 0.1 {
+            return Ray::new(origin, direction);
         }
     }
 }
@@ -132,15 +132,15 @@ pub fn gather<L: Lanes>(l: L, rays: &[Ray]) -> LaneRays<L> {
         l.load(&v)
     };
     LaneRays {
-        org: [
+        origin: [
             lanes(&|r| r.origin.x),
             lanes(&|r| r.origin.y),
             lanes(&|r| r.origin.z),
         ],
-        dir: [
-            lanes(&|r| r.dir.x),
-            lanes(&|r| r.dir.y),
-            lanes(&|r| r.dir.z),
+        direction: [
+            lanes(&|r| r.direction.x),
+            lanes(&|r| r.direction.y),
+            lanes(&|r| r.direction.z),
         ],
     }
 }

@@ -100,6 +100,7 @@ impl Default for KdTreeBuilder {
 impl KdTreeBuilder {
     /// A builder with no buffers yet, whose split search runs on the widest ISA of this CPU
     /// (or the one `KDBEAM_ISA` names, as for [`crate::Tracer`]).
+    #[must_use]
     pub fn new() -> Self {
         KdTreeBuilder {
             triangles: Vec::new(),
@@ -120,11 +121,13 @@ impl KdTreeBuilder {
     }
 
     /// The same builder with its split search on an ISA already checked.
+    #[must_use]
     pub fn with_dispatch(self, dispatch: Dispatch) -> Self {
         KdTreeBuilder { dispatch, ..self }
     }
 
     /// The ISA of the split search.
+    #[must_use]
     pub fn isa(&self) -> Isa {
         self.dispatch.isa()
     }

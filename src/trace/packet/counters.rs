@@ -70,6 +70,7 @@ impl PacketCounters {
     }
 
     /// Share of the potential ray–triangle tests that culling eliminated, in percent.
+    #[must_use]
     pub fn eliminated_percent(&self) -> f64 {
         if self.potential_tests == 0 {
             return 0.0;
@@ -78,6 +79,7 @@ impl PacketCounters {
     }
 
     /// Share of leaf visits with a single active ray, in percent (with the `stats` feature).
+    #[must_use]
     pub fn single_ray_visits_percent(&self) -> f64 {
         100.0 * self.active_rays[1] as f64 / self.leaf_visits.max(1) as f64
     }

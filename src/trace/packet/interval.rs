@@ -76,16 +76,16 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
         let b = g * L::WIDTH;
         let rays = lane_rays(l, p, g);
         let inv = [
-            l.splat(1.0) / rays.dir[0],
-            l.splat(1.0) / rays.dir[1],
-            l.splat(1.0) / rays.dir[2],
+            l.splat(1.0) / rays.direction[0],
+            l.splat(1.0) / rays.direction[1],
+            l.splat(1.0) / rays.direction[2],
         ];
         for a in 0..3 {
             l.store(inv[a], &mut inv_columns[a][b..]);
         }
         let (hit, tn, tf) = slab::slab_lanes(
             l,
-            &rays.org,
+            &rays.origin,
             &inv,
             l.load(&p.tmin[b..]),
             l.load(&p.tmax[b..]),
@@ -99,11 +99,11 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
         t_enter = t_enter.min(L::F32::select(live, tn, inf).reduce_min());
         t_exit = t_exit.max(L::F32::select(live, tf, ninf).reduce_max());
         for a in 0..3 {
-            o_lo[a] = o_lo[a].min(L::F32::select(live, rays.org[a], inf).reduce_min());
-            o_hi[a] = o_hi[a].max(L::F32::select(live, rays.org[a], ninf).reduce_max());
+            o_lo[a] = o_lo[a].min(L::F32::select(live, rays.origin[a], inf).reduce_min());
+            o_hi[a] = o_hi[a].max(L::F32::select(live, rays.origin[a], ninf).reduce_max());
             inv_lo[a] = inv_lo[a].min(L::F32::select(live, inv[a], inf).reduce_min());
             inv_hi[a] = inv_hi[a].max(L::F32::select(live, inv[a], ninf).reduce_max());
-            let e = (rays.org[a] * inv[a]).abs().min(max);
+            let e = (rays.origin[a] * inv[a]).abs().min(max);
             err[a] = err[a].max(L::F32::select(live, e, l.splat(0.0)).reduce_max());
         }
     }
@@ -226,14 +226,14 @@ fn rays_in_box<L: Lanes>(
             continue;
         }
         let b = g * L::WIDTH;
-        let org = load_axes(l, &p.org, b);
+        let origin = load_axes(l, &p.origin, b);
         let iv = load_axes(l, inv, b);
-        let err = (org[0] * iv[0])
+        let err = (origin[0] * iv[0])
             .abs()
-            .max((org[1] * iv[1]).abs())
-            .max((org[2] * iv[2]).abs())
+            .max((origin[1] * iv[1]).abs())
+            .max((origin[2] * iv[2]).abs())
             .min(max);
-        let (_, near, far) = slab::slab_lanes(l, &org, &iv, ninf, inf, bounds);
+        let (_, near, far) = slab::slab_lanes(l, &origin, &iv, ninf, inf, bounds);
         let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&best[b..]));
         let lo = (near - t_slack(near, err, max, eps)).max(tmin - t_slack(tmin, err, max, eps));
         let hi = (far + t_slack(far, err, max, eps)).min(tmax + t_slack(tmax, err, max, eps));

@@ -15,12 +15,12 @@ pub(crate) fn traceable_mask<L: Lanes>(l: L, p: &RayPacket, active: u64) -> u64 
         let rays = lane_rays(l, p, g);
         // No closures here: inside the ISA's `#[target_feature]` entry they are not inlined.
         let mut finite = l.load(&p.tmin[b..]).le(l.load(&p.tmax[b..]));
-        let mut zero_dir = !l.mask_from_bits(0);
+        let mut zero_direction = !l.mask_from_bits(0);
         for a in 0..3 {
-            finite = finite & rays.org[a].abs().lt(inf) & rays.dir[a].abs().lt(inf);
-            zero_dir = zero_dir & rays.dir[a].eq(zero);
+            finite = finite & rays.origin[a].abs().lt(inf) & rays.direction[a].abs().lt(inf);
+            zero_direction = zero_direction & rays.direction[a].eq(zero);
         }
-        traceable |= u64::from(finite.and_not(zero_dir).bits()) << b;
+        traceable |= u64::from(finite.and_not(zero_direction).bits()) << b;
     }
     traceable & active & p.full_mask()
 }
@@ -38,9 +38,9 @@ pub(crate) fn octant_masks<L: Lanes>(l: L, p: &RayPacket, mask: u64) -> [u64; 8]
         }
         let b = g * L::WIDTH;
         let signs = [
-            l.load(&p.dir[0][b..]).sign_bits(),
-            l.load(&p.dir[1][b..]).sign_bits(),
-            l.load(&p.dir[2][b..]).sign_bits(),
+            l.load(&p.direction[0][b..]).sign_bits(),
+            l.load(&p.direction[1][b..]).sign_bits(),
+            l.load(&p.direction[2][b..]).sign_bits(),
         ];
         for (o, octant) in octants.iter_mut().enumerate() {
             let mut lanes = bits;

@@ -27,10 +27,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     for a in 0..3 {
         for g in 0..groups {
             let b = g * L::WIDTH;
-            let i = l.splat(1.0) / l.load(&p.dir[a][b..]);
+            let i = l.splat(1.0) / l.load(&p.direction[a][b..]);
             l.store(i, &mut inv[a][b..]);
             l.store(
-                (l.load(&p.org[a][b..]) * i).abs().min(max),
+                (l.load(&p.origin[a][b..]) * i).abs().min(max),
                 &mut err[a][b..],
             );
         }
@@ -46,11 +46,11 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             continue;
         }
         let b = g * L::WIDTH;
-        let org = load_axes(l, &p.org, b);
+        let origin = load_axes(l, &p.origin, b);
         let iv = load_axes(l, &inv, b);
         let (hit, tn, tf) = slab::slab_lanes(
             l,
-            &org,
+            &origin,
             &iv,
             l.load(&p.tmin[b..]),
             l.load(&p.tmax[b..]),
@@ -96,7 +96,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                     continue;
                 }
                 let b = g * L::WIDTH;
-                let ts = (split - l.load(&p.org[axis][b..])) * l.load(&inv[axis][b..]);
+                let ts = (split - l.load(&p.origin[axis][b..])) * l.load(&inv[axis][b..]);
                 let (tn, tf) = (l.load(&t_enter[b..]), l.load(&t_exit[b..]));
                 let (ne, fe) = split_intervals(ts, tn, tf, l.load(&err[axis][b..]), eps, max);
                 let act = l.mask_from_bits(bits);
