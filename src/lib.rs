@@ -39,7 +39,7 @@
 //! # ISA
 //!
 //! [`Tracer::new`] and [`KdTreeBuilder::new`] resolve the widest ISA this CPU runs (or the one
-//! `KDBEAM_ISA=scalar|portable|sse|avx2` names) once; [`Tracer::with_isa`] forces one, and
+//! `KDBEAM_ISA=scalar|portable|sse|avx2|avx512` names) once; [`Tracer::with_isa`] forces one, and
 //! fails with [`Error::IsaUnavailable`] when the CPU lacks it. Every ISA gives the scalar path's
 //! hits.
 //!

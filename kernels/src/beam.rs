@@ -30,7 +30,7 @@ use glam::Vec3;
 
 use crate::aabb::Aabb;
 use crate::groups::{group_bits, group_count};
-use crate::lanes::{LaneF32, LaneMask, Lanes};
+use crate::lanes::{LaneF32, LaneMask, Lanes, MAX_WIDTH};
 use crate::packet::{RayPacket, MAX_PACKET_RAYS};
 use crate::triangle::Triangle;
 
@@ -491,7 +491,7 @@ impl<L: Lanes> Beam<L> {
                 if w == 1 {
                     l.splat(a[c])
                 } else {
-                    let mut buf = [0.0f32; 8];
+                    let mut buf = [0.0f32; MAX_WIDTH];
                     for (j, b) in buf.iter_mut().enumerate().take(w) {
                         *b = a[j % 4];
                     }

@@ -16,11 +16,12 @@
 //! box and plane vector) and returned as `f32`: exact for the at most 2²⁴ boxes a caller may
 //! pass, and already in the form the cost needs.
 
-use crate::lanes::{LaneCount, LaneF32, LaneMask, Lanes};
+use crate::lanes::{LaneCount, LaneF32, LaneMask, Lanes, MAX_WIDTH};
 
 /// A set of planes on one axis with their counts ([`count_planes`]), in lanes: entry `k` of each
 /// slice belongs to plane `k`. All the slices have the same length, a multiple of the widest
-/// `WIDTH` (8); unused entries hold a NaN position, which no cell contains.
+/// `WIDTH` ([`MAX_WIDTH`]); unused entries hold a NaN position, which no cell
+/// contains.
 #[derive(Clone, Copy, Debug)]
 pub struct AxisPlanes<'a> {
     /// Positions.
@@ -183,7 +184,7 @@ pub fn cheapest_plane<L: Lanes>(
     };
     let mut best_weight = l.splat(f32::INFINITY);
     let (mut best_pos, mut best_index, mut best_planar_below) = (zero, zero, zero);
-    let mut index = [0.0f32; 8];
+    let mut index = [0.0f32; MAX_WIDTH];
     for (i, x) in index.iter_mut().enumerate().take(L::WIDTH) {
         *x = i as f32;
     }

@@ -45,9 +45,10 @@ impl LaneTask for OpsVsScalar {
             }
             let (va, vb, vc) = (l.load(&a), l.load(&b), l.load(&c));
 
-            // FMA only on AVX2 + FMA: one rounding there (`f32::mul_add` is the fused reference),
-            // two elsewhere. A non-fused AVX `mul_add` fails this on most random inputs.
-            let mul_add: Reference = if L::ISA == Isa::Avx2 {
+            // FMA only on AVX2 + FMA and AVX-512: one rounding there (`f32::mul_add` is the fused
+            // reference), two elsewhere. A non-fused `mul_add` there fails this on most random
+            // inputs.
+            let mul_add: Reference = if matches!(L::ISA, Isa::Avx2 | Isa::Avx512) {
                 |x, y, z| x.mul_add(y, z)
             } else {
                 |x, y, z| x * y + z
@@ -151,11 +152,15 @@ impl LaneTask for OpsVsScalar {
 
 #[test]
 fn every_f32_op_matches_scalar_lane_by_lane() {
+    passes_on_every_isa(|| OpsVsScalar { seed: 7 });
+}
+
+/// Runs the task `make` returns on every ISA this CPU has; fails with the first failures it
+/// reports, or when a vector ISA this CPU has was skipped.
+fn passes_on_every_isa<T: LaneTask<Output = Vec<String>>>(make: impl Fn() -> T) {
     let mut ran = Vec::new();
     for isa in Isa::available() {
-        let failures = Dispatch::new(isa)
-            .expect("available ISA runs")
-            .run(OpsVsScalar { seed: 7 });
+        let failures = Dispatch::new(isa).expect("available ISA runs").run(make());
         assert!(
             failures.is_empty(),
             "{} failures, first: {:#?}",
@@ -164,10 +169,156 @@ fn every_f32_op_matches_scalar_lane_by_lane() {
         );
         ran.push(isa);
     }
-    // This machine has AVX2 + FMA: make sure the vector paths were not silently skipped.
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-        assert_eq!(ran, Isa::ALL.to_vec());
+    assert_every_vector_isa_ran(&ran);
+}
+
+/// Fails when this CPU has AVX2 + FMA (or AVX-512F/BW/DQ/VL) but `ran` lacks that ISA: the
+/// vector paths must not be skipped silently. Says which ISAs ran, and which were skipped.
+fn assert_every_vector_isa_ran(ran: &[Isa]) {
+    let has = |f: &[&str]| f.iter().all(|f| std_detect_has(f));
+    let mut want = vec![Isa::Scalar, Isa::Portable];
+    if has(&["sse4.1"]) {
+        want.push(Isa::Sse);
     }
+    if has(&["avx2", "fma"]) {
+        want.push(Isa::Avx2);
+    }
+    if has(&["avx2", "fma", "avx512f", "avx512bw", "avx512dq", "avx512vl"]) {
+        want.push(Isa::Avx512);
+    }
+    let skipped: Vec<Isa> = Isa::ALL.into_iter().filter(|i| !ran.contains(i)).collect();
+    eprintln!("ran on {ran:?}; skipped (not on this CPU) {skipped:?}");
+    assert_eq!(ran, want.as_slice());
+}
+
+/// `is_x86_feature_detected!` by name, for the features the x86 ISAs need.
+fn std_detect_has(feature: &str) -> bool {
+    match feature {
+        "sse4.1" => std::is_x86_feature_detected!("sse4.1"),
+        "avx2" => std::is_x86_feature_detected!("avx2"),
+        "fma" => std::is_x86_feature_detected!("fma"),
+        "avx512f" => std::is_x86_feature_detected!("avx512f"),
+        "avx512bw" => std::is_x86_feature_detected!("avx512bw"),
+        "avx512dq" => std::is_x86_feature_detected!("avx512dq"),
+        "avx512vl" => std::is_x86_feature_detected!("avx512vl"),
+        _ => unreachable!("no ISA needs {feature}"),
+    }
+}
+
+/// The special values, each placed in every lane in turn (the others holding `1.0`), against
+/// the scalar semantics: `min`/`max` return the second operand when either is NaN (x86
+/// `minps`), `-0.0` and `+0.0` compare equal but keep their sign bits, infinities order, and
+/// the reductions skip NaN lanes. The upper lanes of a 16-lane vector are where a half-wide
+/// implementation would go wrong.
+struct SpecialsInEveryLane;
+
+impl LaneTask for SpecialsInEveryLane {
+    type Output = Vec<String>;
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> Vec<String> {
+        let specials = [
+            f32::NAN,
+            -f32::NAN,
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE / 2.0,
+            -1.5,
+        ];
+        let mut failures = Vec::new();
+        for &x in &specials {
+            for &y in &specials {
+                for lane in 0..L::WIDTH {
+                    let mut a = vec![1.0f32; L::WIDTH];
+                    let mut b = vec![1.0f32; L::WIDTH];
+                    a[lane] = x;
+                    b[lane] = y;
+                    let (va, vb) = (l.load(&a), l.load(&b));
+                    let bit = 1u32 << lane;
+                    let lanes = [
+                        ("min", va.min(vb).extract(lane), if x < y { x } else { y }),
+                        ("max", va.max(vb).extract(lane), if x > y { x } else { y }),
+                        ("neg", (-va).extract(lane), -x),
+                        ("abs", va.abs().extract(lane), x.abs()),
+                        (
+                            "masked",
+                            va.masked(va.lt(vb)).extract(lane),
+                            if x < y { x } else { 0.0 },
+                        ),
+                        (
+                            "select",
+                            L::F32::select(va.ge(vb), va, vb).extract(lane),
+                            if x >= y { x } else { y },
+                        ),
+                    ];
+                    for (name, got, want) in lanes {
+                        if !same(got, want) {
+                            failures.push(format!(
+                                "{}: {name}({x}, {y}) lane {lane} = {got} want {want}",
+                                L::ISA
+                            ));
+                        }
+                    }
+                    let masks = [
+                        ("lt", va.lt(vb).bits(), x < y),
+                        ("le", va.le(vb).bits(), x <= y),
+                        ("gt", va.gt(vb).bits(), x > y),
+                        ("ge", va.ge(vb).bits(), x >= y),
+                        ("eq", va.eq(vb).bits(), x == y),
+                        ("is_nan", va.is_nan().bits(), x.is_nan()),
+                        ("sign_bits", va.sign_bits(), x.is_sign_negative()),
+                    ];
+                    for (name, got, want) in masks {
+                        if (got & bit != 0) != want {
+                            failures
+                                .push(format!("{}: {name}({x}, {y}) lane {lane}: {got:b}", L::ISA));
+                        }
+                    }
+                    let (lo, hi) = (va.reduce_min(), va.reduce_max());
+                    let non_nan = a.iter().copied().filter(|v| !v.is_nan());
+                    let want_lo = non_nan.clone().fold(f32::INFINITY, f32::min);
+                    let want_hi = non_nan.fold(f32::NEG_INFINITY, f32::max);
+                    if lo != want_lo || hi != want_hi {
+                        failures.push(format!(
+                            "{}: reduce with {x} in lane {lane} = ({lo}, {hi})",
+                            L::ISA
+                        ));
+                    }
+                }
+            }
+        }
+        failures
+    }
+}
+
+#[test]
+fn special_values_behave_as_scalar_in_every_lane() {
+    passes_on_every_isa(|| SpecialsInEveryLane);
+}
+
+/// Sixteen lanes of `__m512` with `__mmask16` masks, where the CPU has AVX-512: a token is made
+/// by detection, and bits of a mask are its lanes, all sixteen.
+#[test]
+fn the_avx512_token_has_sixteen_lanes_where_detected() {
+    use kdbeam_kernels::lanes::Avx512;
+    let Some(l) = Avx512::try_new() else {
+        eprintln!("skipped: this CPU lacks AVX-512F/BW/DQ/VL");
+        assert!(!Isa::Avx512.is_available());
+        return;
+    };
+    assert_eq!(Avx512::WIDTH, 16);
+    assert_eq!(Isa::detect(), Isa::Avx512, "the widest ISA is preferred");
+    assert_eq!("AVX512".parse::<Isa>(), Ok(Isa::Avx512));
+    let v: Vec<f32> = (0..16).map(|i| i as f32 - 7.5).collect();
+    let lanes = lanes_of(l, l.load(&v));
+    assert_eq!(lanes, v);
+    assert_eq!(l.load(&v).sign_bits(), 0xff);
+    assert_eq!(l.load(&v).gt(l.splat(0.0)).bits(), 0xff00);
+    assert_eq!((!l.mask_from_bits(0x1_0001)).bits(), 0xfffe);
+    assert_eq!(l.load(&v).reduce_min(), -7.5);
+    assert_eq!(l.load(&v).reduce_max(), 7.5);
 }
 
 /// Checks masks: construction from bits, `bits`, `!` (only `WIDTH` lanes), `&`, `|`, `^`,

@@ -5,14 +5,14 @@
 mod common;
 
 use common::Rng;
-use kdbeam_kernels::lanes::Dispatch;
+use kdbeam_kernels::lanes::{Dispatch, MAX_WIDTH};
 use kdbeam_kernels::split_planes::{
     cheapest_plane, count_planes, AxisCell, AxisPlanes, CheapestPlane,
 };
 use kdbeam_kernels::{Isa, LaneTask, Lanes};
 
 /// Boxes' faces on one axis, and the planes at those faces (padded with NaN to a multiple
-/// of 8).
+/// of the widest lanes).
 struct Case {
     lo: Vec<f32>,
     hi: Vec<f32>,
@@ -37,7 +37,7 @@ fn case(rng: &mut Rng, n: usize) -> Case {
     }
     let flat = lo.iter().zip(&hi).any(|(a, b)| a == b);
     let mut pos: Vec<f32> = lo.iter().chain(&hi).copied().collect();
-    pos.resize(pos.len().div_ceil(8) * 8, f32::NAN);
+    pos.resize(pos.len().next_multiple_of(MAX_WIDTH), f32::NAN);
     Case { lo, hi, flat, pos }
 }
 
@@ -192,17 +192,9 @@ fn every_isa_counts_and_costs_as_the_definitions() {
 
 #[test]
 fn a_span_with_no_plane_strictly_inside_has_no_cheapest() {
-    let pos = [
-        0.0,
-        1.0,
-        f32::NAN,
-        f32::NAN,
-        f32::NAN,
-        f32::NAN,
-        f32::NAN,
-        f32::NAN,
-    ];
-    let counts = [1.0; 8];
+    let mut pos = [f32::NAN; MAX_WIDTH];
+    pos[..2].copy_from_slice(&[0.0, 1.0]);
+    let counts = [1.0; MAX_WIDTH];
     let planes = AxisPlanes {
         pos: &pos,
         below: &counts,

@@ -28,7 +28,7 @@ pub(crate) struct RenderArgs {
     /// culling, then with the chosen culling, on one log scale.
     #[arg(long)]
     heatmap: bool,
-    /// Instruction set: scalar, portable, sse, avx2 (default: the widest this CPU runs, or
+    /// Instruction set: scalar, portable, sse, avx2, avx512 (default: the widest this CPU runs, or
     /// KDBEAM_ISA).
     #[arg(long)]
     isa: Option<Isa>,

@@ -3,7 +3,7 @@
 use core::fmt;
 
 #[cfg(target_arch = "x86_64")]
-use super::{Avx, Sse};
+use super::{Avx, Avx512, Sse};
 use super::{Isa, LaneTask, Lanes, Portable, Scalar};
 
 /// An ISA this CPU was checked to run: the one way kdbeam runs a [`LaneTask`] on an ISA chosen
@@ -62,8 +62,8 @@ impl Dispatch {
     /// `isa`, if this CPU runs it.
     ///
     /// # Errors
-    /// [`IsaError::Unavailable`] otherwise (always for [`Isa::Sse`] and [`Isa::Avx2`] off
-    /// x86-64).
+    /// [`IsaError::Unavailable`] otherwise (always for [`Isa::Sse`], [`Isa::Avx2`] and
+    /// [`Isa::Avx512`] off x86-64).
     #[cfg(feature = "std")]
     pub fn new(isa: Isa) -> Result<Dispatch, IsaError> {
         if isa.is_available() {
@@ -101,7 +101,8 @@ impl Dispatch {
     }
 
     /// The ISA the environment variable `KDBEAM_ISA` forces, if it is set and not blank: one of
-    /// the names [`Isa`]'s `FromStr` accepts (`scalar`, `portable`, `sse`, `avx2`, any case).
+    /// the names [`Isa`]'s `FromStr` accepts (`scalar`, `portable`, `sse`, `avx2`, `avx512`, any
+    /// case).
     ///
     /// # Errors
     /// [`IsaError::UnknownName`] when the variable names no ISA, [`IsaError::Unavailable`]
@@ -153,8 +154,16 @@ impl Dispatch {
                 // this CPU or the caller of `new_unchecked` promised them.
                 unsafe { Avx::new_unchecked() }.run(task)
             }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                // SAFETY: `self.isa` is `Avx512` only if `Dispatch::new` found AVX-512F/BW/DQ/VL,
+                // AVX2 and FMA on this CPU or the caller of `new_unchecked` promised them.
+                unsafe { Avx512::new_unchecked() }.run(task)
+            }
             #[cfg(not(target_arch = "x86_64"))]
-            Isa::Sse | Isa::Avx2 => unreachable!("no constructor admits an x86 ISA off x86-64"),
+            Isa::Sse | Isa::Avx2 | Isa::Avx512 => {
+                unreachable!("no constructor admits an x86 ISA off x86-64")
+            }
         }
     }
 }

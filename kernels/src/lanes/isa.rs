@@ -15,11 +15,13 @@ pub enum Isa {
     Sse,
     /// Eight lanes of `__m256`, AVX2 + FMA.
     Avx2,
+    /// Sixteen lanes of `__m512` with masks in `__mmask16`, AVX-512F/BW/DQ/VL (with AVX2 + FMA).
+    Avx512,
 }
 
 impl Isa {
     /// Every ISA, narrowest first.
-    pub const ALL: [Isa; 4] = [Isa::Scalar, Isa::Portable, Isa::Sse, Isa::Avx2];
+    pub const ALL: [Isa; 5] = [Isa::Scalar, Isa::Portable, Isa::Sse, Isa::Avx2, Isa::Avx512];
 
     /// Lanes per vector.
     #[must_use]
@@ -28,10 +30,11 @@ impl Isa {
             Isa::Scalar => 1,
             Isa::Portable | Isa::Sse => 4,
             Isa::Avx2 => 8,
+            Isa::Avx512 => 16,
         }
     }
 
-    /// The name `KDBEAM_ISA` and the CLI accept: `scalar`, `portable`, `sse`, `avx2`.
+    /// The name `KDBEAM_ISA` and the CLI accept: `scalar`, `portable`, `sse`, `avx2`, `avx512`.
     #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
@@ -39,6 +42,7 @@ impl Isa {
             Isa::Portable => "portable",
             Isa::Sse => "sse",
             Isa::Avx2 => "avx2",
+            Isa::Avx512 => "avx512",
         }
     }
 
@@ -55,8 +59,16 @@ impl Isa {
             Isa::Avx2 => {
                 std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
             }
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => {
+                Isa::Avx2.is_available()
+                    && std::is_x86_feature_detected!("avx512f")
+                    && std::is_x86_feature_detected!("avx512bw")
+                    && std::is_x86_feature_detected!("avx512dq")
+                    && std::is_x86_feature_detected!("avx512vl")
+            }
             #[cfg(not(target_arch = "x86_64"))]
-            Isa::Sse | Isa::Avx2 => false,
+            Isa::Sse | Isa::Avx2 | Isa::Avx512 => false,
         }
     }
 
@@ -90,14 +102,15 @@ pub struct ParseIsaError;
 
 impl fmt::Display for ParseIsaError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str("unknown ISA: expected one of scalar, portable, sse, avx2")
+        f.write_str("unknown ISA: expected one of scalar, portable, sse, avx2, avx512")
     }
 }
 
 impl FromStr for Isa {
     type Err = ParseIsaError;
 
-    /// Parses `scalar`, `portable`, `sse` (or `sse4.1`), `avx2` (or `avx`), ignoring ASCII case.
+    /// Parses `scalar`, `portable`, `sse` (or `sse4.1`), `avx2` (or `avx`), `avx512`,
+    /// ignoring ASCII case.
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         let s = s.trim();
         for (name, isa) in [
@@ -107,6 +120,7 @@ impl FromStr for Isa {
             ("sse4.1", Isa::Sse),
             ("avx2", Isa::Avx2),
             ("avx", Isa::Avx2),
+            ("avx512", Isa::Avx512),
         ] {
             if s.eq_ignore_ascii_case(name) {
                 return Ok(isa);

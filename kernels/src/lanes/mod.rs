@@ -1,10 +1,11 @@
 //! SIMD lanes: the one place in kdbeam that touches `std::arch`.
 //!
 //! A [`Lanes`] value is a zero-sized *token* that proves the CPU supports an instruction set:
-//! [`Scalar`] and [`Portable`] always exist, [`Sse`] (SSE4.1) and [`Avx`] (AVX2 + FMA) only after
-//! run-time detection (or an `unsafe` promise). Vectors ([`Lanes::F32`]) and masks
-//! ([`Lanes::Mask`]) can only be made through a token, so holding one is proof that its
-//! instructions may run; that is what makes their safe operator impls sound.
+//! [`Scalar`] and [`Portable`] always exist, [`Sse`] (SSE4.1), [`Avx`] (AVX2 + FMA) and
+//! [`Avx512`] (AVX-512F/BW/DQ/VL) only after run-time detection (or an `unsafe` promise).
+//! Vectors ([`Lanes::F32`]) and masks ([`Lanes::Mask`]) can only be made through a token, so
+//! holding one is proof that its instructions may run; that is what makes their safe operator
+//! impls sound.
 //!
 //! Kernels are written once, generic over `L: Lanes`, and marked `#[inline(always)]`. A kernel is
 //! instantiated per ISA by [`Lanes::run`], which enters a `#[target_feature]` function and calls a
@@ -18,6 +19,8 @@ use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
 #[cfg(target_arch = "x86_64")]
 mod avx;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod dispatch;
 mod isa;
 mod mxcsr;
@@ -33,6 +36,8 @@ mod tsc;
 
 #[cfg(target_arch = "x86_64")]
 pub use avx::{Avx, AvxCount, AvxF32, AvxMask};
+#[cfg(target_arch = "x86_64")]
+pub use avx512::{Avx512, Avx512Count, Avx512F32, Avx512Mask};
 pub use dispatch::{Dispatch, IsaError};
 pub use isa::{Isa, ParseIsaError};
 pub use mxcsr::with_flush_to_zero;
@@ -43,6 +48,10 @@ pub use scalar::Scalar;
 pub use sse::{Sse, SseCount, SseF32, SseMask};
 pub use truncate::truncate_to_i32;
 pub use tsc::tsc;
+
+/// The widest [`Lanes::WIDTH`] of any ISA ([`Isa::Avx512`]'s 16): buffers that every ISA reads
+/// in whole vectors are padded to a multiple of it.
+pub const MAX_WIDTH: usize = 16;
 
 /// An instruction set and width, as a token that proves the CPU supports it.
 ///
@@ -100,7 +109,7 @@ pub trait LaneF32:
     /// The mask type comparisons produce.
     type Mask: LaneMask;
 
-    /// `self * a + b`: one rounding where the ISA has FMA (AVX2 + FMA), two elsewhere.
+    /// `self * a + b`: one rounding where the ISA has FMA (AVX2 + FMA, AVX-512), two elsewhere.
     ///
     /// Never use it where two computations must round identically on every ISA (the watertight
     /// edge functions of two triangles sharing an edge).

@@ -2,7 +2,7 @@
 //! union as candidate planes, with counts estimated at the boundaries.
 
 use glam::Vec3A;
-use kdbeam_kernels::lanes::truncate_to_i32;
+use kdbeam_kernels::lanes::{truncate_to_i32, MAX_WIDTH};
 use kdbeam_kernels::split_planes::AxisPlanes;
 use kdbeam_kernels::Aabb;
 
@@ -25,7 +25,7 @@ fn bin_index(t: i32) -> usize {
 
 /// Candidate planes per axis of the binned search: the union's lower face, the [`BINS`] − 1
 /// bin boundaries and its upper face, padded to whole vectors of the widest lanes.
-const BINNED_PLANES: usize = (BINS + 1).next_multiple_of(8);
+const BINNED_PLANES: usize = (BINS + 1).next_multiple_of(MAX_WIDTH);
 
 /// A binned node's candidate planes with their counts, in the lanes [`cheapest_plane`] reads:
 /// per axis, plane 0 is the lower face of its clipped boxes' union (none below, all above),

@@ -2,7 +2,7 @@
 //! counts, by counting in SIMD lanes or by Wald & Havran's sweep of the sorted events.
 
 use glam::{BVec3A, Vec3A};
-use kdbeam_kernels::lanes::Dispatch;
+use kdbeam_kernels::lanes::{Dispatch, MAX_WIDTH};
 use kdbeam_kernels::split_planes::{count_planes, AxisPlanes};
 use kdbeam_kernels::{Aabb, LaneTask, Lanes};
 
@@ -39,8 +39,8 @@ pub(crate) struct ExactPlanes {
 
 /// Counted searches of at least this many triangles drop repeated positions
 /// ([`ExactPlanes::fill`]). Smaller nodes list few planes per axis, which the repeats seldom
-/// push past a multiple of 8 lanes, so the table's reset and lookups cost more than they
-/// spare.
+/// push past a multiple of [`MAX_WIDTH`] lanes, so the table's reset and lookups cost more
+/// than they spare.
 const DEDUP_MIN: usize = 16;
 
 /// Per axis, a direct-mapped table of the positions [`ExactPlanes::fill`] has met in a node,
@@ -57,7 +57,7 @@ const UNSEEN: f32 = f32::NAN;
 struct AxisCounts {
     /// Is some box flat on this axis?
     flat: bool,
-    /// The number of planes, then NaN up to a multiple of 8 lanes.
+    /// The number of planes, then NaN up to a multiple of [`MAX_WIDTH`] lanes.
     len: usize,
     pos: Vec<f32>,
     below: Vec<f32>,
@@ -245,10 +245,10 @@ impl Candidates for ExactPlanes {
 }
 
 impl AxisCounts {
-    /// Grows the buffers to hold `planes` planes and their padding, and the eight NaNs
+    /// Grows the buffers to hold `planes` planes and their padding, and the [`MAX_WIDTH`] NaNs
     /// [`AxisCounts::pad`] writes.
     fn make_room(&mut self, planes: usize) {
-        let room = planes.next_multiple_of(8) + 8;
+        let room = planes.next_multiple_of(MAX_WIDTH) + MAX_WIDTH;
         if self.pos.len() < room {
             for list in [
                 &mut self.pos,
@@ -269,11 +269,12 @@ impl AxisCounts {
         <&mut [f32; COUNTED_PLANES]>::try_from(&mut self.pos[..COUNTED_PLANES]).unwrap()
     }
 
-    /// Ends the planes at `len`, padded with NaN positions to a multiple of 8 lanes.
+    /// Ends the planes at `len`, padded with NaN positions to a multiple of [`MAX_WIDTH`] lanes.
     fn pad(&mut self, len: usize) {
-        self.len = len.next_multiple_of(8);
-        // Always eight, in a store or two: 0 to 7, in a loop, mispredicted its exit.
-        self.pos[len..len + 8].fill(f32::NAN);
+        self.len = len.next_multiple_of(MAX_WIDTH);
+        // Always a whole vector, in a store or two: a variable count, in a loop, mispredicted
+        // its exit.
+        self.pos[len..len + MAX_WIDTH].fill(f32::NAN);
     }
 }
 
