@@ -3,15 +3,13 @@
 
 use std::path::PathBuf;
 
-/// One shared test mesh: its short name, its file under the scenes directory, its triangle count.
+/// One shared test mesh: its short name and its file under the scenes directory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SharedScene {
     /// Short name: `bunny`, `sponza`, `dragon` or `killeroo`.
     pub name: &'static str,
     /// Path of the OBJ file relative to [`shared_scenes_dir`].
     pub file: &'static str,
-    /// Triangles after fan triangulation (all four files hold only triangles).
-    pub triangles: usize,
 }
 
 /// The four shared meshes, smallest file first.
@@ -19,22 +17,18 @@ pub const SHARED_SCENES: &[SharedScene] = &[
     SharedScene {
         name: "killeroo",
         file: "killeroo/killeroo_cage.obj",
-        triangles: 8_316,
     },
     SharedScene {
         name: "sponza",
         file: "sponza_dabrovic/sponza.obj.gz",
-        triangles: 66_454,
     },
     SharedScene {
         name: "bunny",
         file: "bunny/stanford-bunny.obj",
-        triangles: 69_451,
     },
     SharedScene {
         name: "dragon",
         file: "dragon_100k/dragon.obj",
-        triangles: 100_000,
     },
 ];
 
