@@ -1,6 +1,6 @@
-//! `kdbeam figures --out DIR`: Reshetov's Figs. 3, 4 and 5 (the synthetic cell), Fig. 7 (a tree
-//! size sweep on a real scene) and the Embree comparison, as SVG with CSV next to each and a
-//! markdown summary.
+//! `kdbeam figures --out DIR`: Reshetov's Figs. 3, 4a, 4b and 5 (the synthetic cell, five curves
+//! each), Figs. 7–9 (tree-size sweeps on real scenes, masked and maskless), on every vector ISA,
+//! and the Embree comparison, as SVG with CSV next to each and a markdown summary.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -21,20 +21,27 @@ pub(crate) struct FiguresArgs {
     /// Folder for the figures, their CSV and summary.md.
     #[arg(long, default_value = "figures")]
     out: PathBuf,
-    /// Scene of the tree-size sweep and the Embree comparison.
+    /// Scenes of the tree-size sweeps, comma separated: Figs. 7, 8, 9, … in this order (the
+    /// paper's Fig. 9 is a 10M-triangle statue; `builtin:terrain:2237` has 10M triangles).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "bunny,dragon,builtin:terrain:2237"
+    )]
+    sweep_scenes: Vec<String>,
+    /// Scene of the Embree comparison.
     #[arg(long, default_value = "bunny")]
     scene: String,
-    /// ISA of the synthetic figures (default: the widest this CPU runs).
-    #[arg(long)]
-    isa: Option<Isa>,
+    /// ISAs of every figure, comma separated (default: every vector ISA this CPU runs).
+    #[arg(long, value_delimiter = ',')]
+    isa: Vec<Isa>,
     /// Fewer packets, smaller images and fewer points: a quick look, not a measurement.
     #[arg(long)]
     quick: bool,
 }
 
-/// One synthetic curve point: x, then cycles per test for the baseline, 4-plane and
-/// 6-plane + aperture.
-type Curve = Vec<(f64, [f64; 3])>;
+/// One synthetic curve point: x, then cycles per test for each of [`CULLINGS`].
+type Curve = Vec<(f64, [f64; CULLINGS.len()])>;
 
 /// A synthetic figure: file stem, title, x label, log x axis, and the parameters of each point.
 struct Figure {
@@ -45,35 +52,35 @@ struct Figure {
     points: Vec<(f64, SyntheticParams)>,
 }
 
-const CULLINGS: [(&str, Culling); 3] = [
+/// Reshetov's five curves of Fig. 3, the baseline first.
+const CULLINGS: [(&str, Culling); 5] = [
     ("Kensler–Shirley", Culling::NONE),
     ("4-plane", Culling::planes(Planes::Four, false)),
-    ("6-plane + aperture", Culling::FULL),
+    ("4-plane + aperture", Culling::planes(Planes::Four, true)),
+    ("6-plane", Culling::planes(Planes::Six, false)),
+    ("6-plane + aperture", Culling::planes(Planes::Six, true)),
 ];
 
-pub(crate) fn run(args: FiguresArgs) -> Result<()> {
-    let io = |path: &Path| {
-        let path = path.to_path_buf();
-        move |source| kdbeam::Error::Io { path, source }
+/// The synthetic figures: Fig. 3 (leaf edge / triangle edge), Figs. 4a and 4b (packet size at
+/// ratio 1 and 4), Fig. 5 (packet cross-section).
+fn synthetic_figures(base: SyntheticParams) -> [Figure; 4] {
+    let with = |x: f64, params: SyntheticParams| (x, params);
+    let packets = |ratio: f32| {
+        [2usize, 4, 8, 16]
+            .iter()
+            .map(|&n| {
+                with(
+                    n as f64,
+                    SyntheticParams {
+                        packet_n: n,
+                        ratio,
+                        ..base
+                    },
+                )
+            })
+            .collect()
     };
-    std::fs::create_dir_all(&args.out).map_err(io(&args.out))?;
-    let isa = match args.isa {
-        Some(isa) => kdbeam::kernels::Dispatch::new(isa)?.isa(),
-        None => Isa::detect(),
-    };
-    let base = SyntheticParams {
-        packets: if args.quick { 64 } else { 1024 },
-        ..SyntheticParams::default()
-    };
-    let reps = if args.quick { 3 } else { 9 };
-    let mut summary = format!(
-        "# kdbeam figures\n\nMade by `kdbeam figures{}` on {isa}; cycles are TSC reference \
-         cycles per ray–triangle test (median of {reps}); every ratio is against the \
-         Kensler–Shirley baseline of the same run.\n\n",
-        if args.quick { " --quick" } else { "" }
-    );
-
-    let figs = [
+    [
         Figure {
             stem: "fig3",
             title: "Fig. 3: cycles per test against leaf edge / triangle edge (8×8, jitter 4%)",
@@ -81,7 +88,7 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
             log_x: false,
             points: (1..=10)
                 .map(|r| {
-                    (
+                    with(
                         f64::from(r),
                         SyntheticParams {
                             ratio: r as f32,
@@ -92,22 +99,18 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
                 .collect(),
         },
         Figure {
-            stem: "fig4",
-            title: "Fig. 4: cycles per test against packet size n×n (ratio 4, jitter 4%)",
+            stem: "fig4a",
+            title: "Fig. 4a: cycles per test against packet size n×n (ratio 1, jitter 4%)",
             x_label: "rays per packet side n",
             log_x: true,
-            points: [2usize, 4, 8, 16]
-                .iter()
-                .map(|&n| {
-                    (
-                        n as f64,
-                        SyntheticParams {
-                            packet_n: n,
-                            ..base
-                        },
-                    )
-                })
-                .collect(),
+            points: packets(1.0),
+        },
+        Figure {
+            stem: "fig4b",
+            title: "Fig. 4b: cycles per test against packet size n×n (ratio 4, jitter 4%)",
+            x_label: "rays per packet side n",
+            log_x: true,
+            points: packets(4.0),
         },
         Figure {
             stem: "fig5",
@@ -118,7 +121,7 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
             points: [0.01f64, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64, 1.0]
                 .iter()
                 .map(|&j| {
-                    (
+                    with(
                         j,
                         SyntheticParams {
                             jitter: j as f32,
@@ -128,65 +131,123 @@ pub(crate) fn run(args: FiguresArgs) -> Result<()> {
                 })
                 .collect(),
         },
-    ];
+    ]
+}
+
+pub(crate) fn run(args: FiguresArgs) -> Result<()> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| kdbeam::Error::Io { path, source }
+    };
+    std::fs::create_dir_all(&args.out).map_err(io(&args.out))?;
+    let isas: Vec<Isa> = if args.isa.is_empty() {
+        Isa::available()
+            .filter(|i| !matches!(i, Isa::Scalar | Isa::Portable))
+            .collect()
+    } else {
+        args.isa.clone()
+    };
+    for &isa in &isas {
+        kdbeam::kernels::Dispatch::new(isa)?;
+    }
+    let isa_list = isas
+        .iter()
+        .map(|i| i.to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let base = SyntheticParams {
+        packets: if args.quick { 64 } else { 1024 },
+        ..SyntheticParams::default()
+    };
+    let reps = if args.quick { 3 } else { 9 };
+    let mut summary = format!(
+        "# kdbeam figures\n\nMade by `kdbeam figures{}` on {isa_list}; cycles are TSC reference \
+         cycles per ray–triangle test (median of {reps}); every ratio is against the \
+         Kensler–Shirley baseline of the same run.\n\n",
+        if args.quick { " --quick" } else { "" }
+    );
+
     for Figure {
         stem,
         title,
         x_label,
         log_x,
         points,
-    } in figs
+    } in synthetic_figures(base)
     {
-        let curve = synthetic_curve(isa, reps, &points)?;
-        write_curve(&args.out, stem, title, x_label, log_x, &curve)?;
-        let _ = writeln!(
-            summary,
-            "## {title}\n\n![{stem}]({stem}.svg) ([CSV]({stem}.csv))\n"
-        );
-        summary.push_str("| x | Kensler–Shirley | 4-plane | 6-plane + aperture | speedup |\n|---:|---:|---:|---:|---:|\n");
-        for (x, c) in &curve {
+        let _ = writeln!(summary, "## {title}\n");
+        for &isa in &isas {
+            let stem = format!("{stem}-{isa}");
+            let title = format!("{title}, {isa}");
+            let curve = synthetic_curve(isa, reps, &points)?;
+            write_curve(&args.out, &stem, &title, x_label, log_x, &curve)?;
             let _ = writeln!(
                 summary,
-                "| {x} | {:.2} | {:.2} | {:.2} | {:.1}× |",
-                c[0],
-                c[1],
-                c[2],
-                c[0] / c[2]
+                "### {isa}\n\n![{stem}]({stem}.svg) ([CSV]({stem}.csv))\n"
             );
+            summary.push_str("| x |");
+            for (name, _) in CULLINGS {
+                let _ = write!(summary, " {name} |");
+            }
+            summary.push_str(" best speedup |\n|---:|");
+            summary.push_str(&"---:|".repeat(CULLINGS.len() + 1));
+            summary.push('\n');
+            for (x, c) in &curve {
+                let _ = write!(summary, "| {x} |");
+                for cycles in c {
+                    let _ = write!(summary, " {cycles:.2} |");
+                }
+                let best = c[1..].iter().copied().fold(f64::INFINITY, f64::min);
+                let _ = writeln!(summary, " {:.1}× |", c[0] / best);
+            }
+            summary.push('\n');
         }
-        summary.push('\n');
     }
 
     let size = if args.quick { "256x256" } else { "1024x1024" };
-    let sweep_args = match parse(&[
-        "sweep",
-        &args.scene,
-        "--from",
-        "0.03",
-        "--to",
-        "3",
-        "--steps",
-        if args.quick { "3" } else { "5" },
-        "--size",
-        size,
-    ])? {
-        Command::Sweep(a) => a,
-        _ => unreachable!("parsed as sweep"),
-    };
-    let points = sweep::points(&sweep_args)?;
-    sweep::write_files(&args.out, "fig7", &args.scene, &points)?;
-    let _ = writeln!(
-        summary,
-        "## Fig. 7: {} primary rays ({size}, one thread): Mrays/s against kd-tree size\n\n![fig7](fig7.svg) ([CSV](fig7.csv))\n\n{}\n",
-        args.scene,
-        sweep::best_culled_vs_unculled(&points).unwrap_or_default()
-    );
+    for (k, scene) in args.sweep_scenes.iter().enumerate() {
+        let stem = format!("fig{}", 7 + k);
+        let sweep_args = match parse(&[
+            "sweep",
+            scene,
+            "--isa",
+            &isa_list,
+            "--from",
+            "0.003",
+            "--to",
+            "3",
+            "--steps",
+            if args.quick { "4" } else { "7" },
+            "--packet",
+            "64",
+            "--size",
+            size,
+        ])? {
+            Command::Sweep(a) => a,
+            _ => unreachable!("parsed as sweep"),
+        };
+        let points = sweep::points(&sweep_args)?;
+        sweep::write_files(&args.out, &stem, scene, &points)?;
+        let _ = writeln!(
+            summary,
+            "## Fig. {}: {scene} primary rays ({size}, one thread, 8×8 packets): Mrays/s against \
+             kd-tree size, masked and maskless, on {isa_list}\n\n![{stem}]({stem}.svg) \
+             ([CSV]({stem}.csv))\n",
+            7 + k
+        );
+        for line in sweep::findings(&points) {
+            let _ = writeln!(summary, "- {line}");
+        }
+        summary.push('\n');
+    }
 
     let mut bench_args = vec![
         "bench",
         &args.scene,
         "--threads",
         "1",
+        "--isa",
+        &isa_list,
         "--packet",
         "1,8,64",
         "--culling",
@@ -263,15 +324,18 @@ fn synthetic_curve(isa: Isa, reps: usize, points: &[(f64, SyntheticParams)]) -> 
     let mut curve = Vec::new();
     for (x, params) in points {
         let cell = synthetic::generate(params)?;
-        let mut cycles = [f64::NAN; 3];
+        let mut cycles = [f64::NAN; CULLINGS.len()];
         for (c, (_, culling)) in cycles.iter_mut().zip(CULLINGS) {
             let dispatch = kdbeam::kernels::Dispatch::new(isa)?;
             *c = kdbeam::trace::synthetic::measure(&cell, dispatch, culling, reps, &mut hits)
                 .cycles_per_test;
         }
         println!(
-            "{x:>8} {:>8.2} {:>8.2} {:>8.2}",
-            cycles[0], cycles[1], cycles[2]
+            "{isa:<7} {x:>8} {}",
+            cycles
+                .iter()
+                .map(|c| format!("{c:>8.2}"))
+                .collect::<String>()
         );
         curve.push((*x, cycles));
     }
@@ -289,12 +353,9 @@ fn write_curve(
     let rows: Vec<Vec<String>> = curve
         .iter()
         .map(|(x, c)| {
-            vec![
-                x.to_string(),
-                format!("{:.4}", c[0]),
-                format!("{:.4}", c[1]),
-                format!("{:.4}", c[2]),
-            ]
+            std::iter::once(x.to_string())
+                .chain(c.iter().map(|v| format!("{v:.4}")))
+                .collect()
         })
         .collect();
     let io = |path: PathBuf| move |source| kdbeam::Error::Io { path, source };
@@ -302,7 +363,14 @@ fn write_curve(
     std::fs::write(
         &path,
         csv(
-            &["x", "kensler_shirley", "four_plane", "six_plane_aperture"],
+            &[
+                "x",
+                "kensler_shirley",
+                "four_plane",
+                "four_plane_aperture",
+                "six_plane",
+                "six_plane_aperture",
+            ],
             &rows,
         ),
     )

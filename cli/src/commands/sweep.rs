@@ -27,9 +27,10 @@ pub(crate) struct SweepArgs {
     /// Image size of the primary rays, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
     size: (u32, u32),
-    /// Instruction set (default: the widest this CPU runs).
-    #[arg(long)]
-    isa: Option<Isa>,
+    /// Instruction sets, comma separated (default: the widest this CPU runs). Each tree is
+    /// traced on each.
+    #[arg(long, value_delimiter = ',')]
+    isa: Vec<Isa>,
     /// Packet size in rays.
     #[arg(long, default_value_t = 64)]
     packet: usize,
@@ -50,6 +51,7 @@ pub(crate) struct SweepArgs {
 #[derive(serde::Serialize)]
 pub(crate) struct Point {
     scene: String,
+    isa: String,
     ci_over_ct: f32,
     culling: String,
     mrays_per_s: f64,
@@ -77,14 +79,20 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
             Culling::planes(Planes::Six, false).with_frustum(Frustum::Packet),
         ),
     ];
+    let isas = if args.isa.is_empty() {
+        vec![Isa::detect()]
+    } else {
+        args.isa.clone()
+    };
     let steps = args.steps.max(2);
     let ratios: Vec<f32> = (0..steps)
         .map(|i| args.from * (args.to / args.from).powf(i as f32 / (steps - 1) as f32))
         .collect();
     if !args.json {
         println!(
-            "{:<18} {:>8} {:<9} {:>9} {:>11} {:>10} {:>10} {:>10}",
+            "{:<18} {:<7} {:>8} {:<9} {:>9} {:>11} {:>10} {:>10} {:>10}",
             "scene",
+            "isa",
             "ci/ct",
             "culling",
             "Mrays/s",
@@ -99,13 +107,14 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
         let params = BuildParams::default().with_ci_over_ct(ci);
         let tree = with_spinner("building kd-tree", || KdTree::build(&mesh, &params))?;
         let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
-        for (label, culling) in cullings {
-            let mut t = Tracer::new(&tree)
+        for (isa, (label, culling)) in isas
+            .iter()
+            .flat_map(|&isa| cullings.iter().map(move |&c| (isa, c)))
+        {
+            let t = Tracer::new(&tree)
                 .with_packet(packet_shape(args.packet)?)
-                .with_culling(culling);
-            if let Some(isa) = args.isa {
-                t = t.with_isa(isa)?;
-            }
+                .with_culling(culling)
+                .with_isa(isa)?;
             let frames: Vec<_> = (0..args.reps.max(1) + 1)
                 .map(|_| pool.install(|| render::trace_primary(&t, &camera, &|_| {})))
                 .collect();
@@ -114,6 +123,7 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
             let f = &frames[0];
             let p = Point {
                 scene: name.clone(),
+                isa: isa.to_string(),
                 ci_over_ct: ci,
                 culling: label.to_string(),
                 mrays_per_s: speeds[speeds.len() / 2],
@@ -126,8 +136,9 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
                 println!("{}", serde_json::to_string(&p).expect("points serialise"));
             } else {
                 println!(
-                    "{:<18} {:>8.3} {:<9} {:>9.2} {:>10.1}% {:>10.2} {:>10.3} {:>10.2}",
+                    "{:<18} {:<7} {:>8.3} {:<9} {:>9.2} {:>10.1}% {:>10.2} {:>10.3} {:>10.2}",
                     p.scene,
+                    p.isa,
                     p.ci_over_ct,
                     p.culling,
                     p.mrays_per_s,
@@ -140,8 +151,10 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
             points.push(p);
         }
     }
-    if let (false, Some(line)) = (args.json, best_culled_vs_unculled(&points)) {
-        println!("{line}");
+    if !args.json {
+        for line in findings(&points) {
+            println!("{line}");
+        }
     }
     if let Some(dir) = &args.out {
         write_files(dir, "sweep", &name, &points)?;
@@ -149,9 +162,31 @@ pub(crate) fn points(args: &SweepArgs) -> Result<Vec<Point>> {
     Ok(points)
 }
 
+/// Per ISA of `points`: the best culled tree against the best unculled one
+/// ([`best_culled_vs_unculled`]), and the speeds of smaller trees ([`smaller_trees`]).
+pub(crate) fn findings(points: &[Point]) -> Vec<String> {
+    let mut isas: Vec<&str> = Vec::new();
+    for p in points {
+        if !isas.contains(&p.isa.as_str()) {
+            isas.push(&p.isa);
+        }
+    }
+    let mut lines = Vec::new();
+    for isa in isas {
+        let of_isa: Vec<&Point> = points.iter().filter(|p| p.isa == isa).collect();
+        lines.extend(best_culled_vs_unculled(&of_isa).map(|line| format!("{isa}: {line}")));
+        lines.extend(
+            smaller_trees(&of_isa, &SMALLER_TREES)
+                .into_iter()
+                .map(|line| format!("{isa}: {line}")),
+        );
+    }
+    lines
+}
+
 /// The sweep's figure of merit: the fastest point with culling against the fastest without,
 /// with their tree sizes, as one line of text (`None` without both kinds of point).
-pub(crate) fn best_culled_vs_unculled(points: &[Point]) -> Option<String> {
+fn best_culled_vs_unculled(points: &[&Point]) -> Option<String> {
     let fastest = |culled: bool| {
         points
             .iter()
@@ -176,6 +211,66 @@ pub(crate) fn best_culled_vs_unculled(points: &[Point]) -> Option<String> {
     ))
 }
 
+/// How many times fewer nodes than the best unculled tree Reshetov measures the culled speed at
+/// (RT07, the Thai statue of Fig. 9: the culled tracer lost 30% at 60× fewer nodes, the unculled
+/// one 75%).
+const SMALLER_TREES: [f64; 3] = [10.0, 20.0, 60.0];
+
+/// For each factor k of `factors`: the speed of each culling's trees at k times fewer nodes than
+/// the best unculled tree, against that tree's speed, one line each. Speeds are interpolated
+/// linearly in log(nodes per triangle) between the two sweep points around the target size;
+/// a target outside a culling's swept sizes is said to be out of range, not extrapolated.
+fn smaller_trees(points: &[&Point], factors: &[f64]) -> Vec<String> {
+    let Some(best) = points
+        .iter()
+        .filter(|p| p.culling == "none")
+        .max_by(|a, b| a.mrays_per_s.total_cmp(&b.mrays_per_s))
+    else {
+        return Vec::new();
+    };
+    let mut cullings: Vec<&str> = Vec::new();
+    for p in points {
+        if !cullings.contains(&p.culling.as_str()) {
+            cullings.push(&p.culling);
+        }
+    }
+    let mut lines = Vec::new();
+    for &k in factors {
+        let target = (best.nodes_per_tri / k).ln();
+        let mut parts = Vec::new();
+        for culling in &cullings {
+            let mut curve: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| p.culling == *culling)
+                .map(|p| (p.nodes_per_tri.ln(), p.mrays_per_s))
+                .collect();
+            curve.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let speed = curve.windows(2).find_map(|w| {
+                let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+                (x0 <= target && target <= x1).then(|| {
+                    if x1 > x0 {
+                        y0 + (y1 - y0) * (target - x0) / (x1 - x0)
+                    } else {
+                        y0.max(y1)
+                    }
+                })
+            });
+            parts.push(match speed {
+                Some(s) => format!("{culling} {:.2}x", s / best.mrays_per_s),
+                None => format!("{culling} out of range"),
+            });
+        }
+        lines.push(format!(
+            "{k}x fewer nodes than the best unculled tree ({:.4} nodes/triangle), speed against \
+             its {:.2} Mrays/s: {}",
+            best.nodes_per_tri / k,
+            best.mrays_per_s,
+            parts.join(", ")
+        ));
+    }
+    lines
+}
+
 /// Writes `STEM.csv` and `STEM.svg` (Mrays/s against nodes per triangle, one line per culling).
 pub(crate) fn write_files(
     dir: &std::path::Path,
@@ -190,6 +285,7 @@ pub(crate) fn write_files(
         .map(|p| {
             vec![
                 p.scene.clone(),
+                p.isa.clone(),
                 p.ci_over_ct.to_string(),
                 p.culling.clone(),
                 format!("{:.3}", p.mrays_per_s),
@@ -202,6 +298,7 @@ pub(crate) fn write_files(
         .collect();
     let header = [
         "scene",
+        "isa",
         "ci_over_ct",
         "culling",
         "mrays_per_s",
@@ -212,12 +309,18 @@ pub(crate) fn write_files(
     ];
     let csv_path = dir.join(format!("{stem}.csv"));
     std::fs::write(&csv_path, csv(&header, &rows)).map_err(io(csv_path.clone()))?;
+    let one_isa = points.iter().all(|p| p.isa == points[0].isa);
     let mut series: Vec<Series> = Vec::new();
     for p in points {
-        match series.iter_mut().find(|s| s.name == p.culling) {
+        let name = if one_isa {
+            p.culling.clone()
+        } else {
+            format!("{} ({})", p.culling, p.isa)
+        };
+        match series.iter_mut().find(|s| s.name == name) {
             Some(s) => s.points.push((p.nodes_per_tri, p.mrays_per_s)),
             None => series.push(Series {
-                name: p.culling.clone(),
+                name,
                 points: vec![(p.nodes_per_tri, p.mrays_per_s)],
             }),
         }
@@ -237,4 +340,69 @@ pub(crate) fn write_files(
         svg_path.display()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(culling: &str, nodes_per_tri: f64, mrays_per_s: f64) -> Point {
+        Point {
+            scene: "s".into(),
+            isa: "avx2".into(),
+            ci_over_ct: 1.0,
+            culling: culling.into(),
+            mrays_per_s,
+            eliminated_pct: 0.0,
+            tests_per_ray: 0.0,
+            nodes_per_tri,
+            mean_leaf_size: 0.0,
+        }
+    }
+
+    /// The best unculled tree has 1 node per triangle at 10 Mrays/s; the culled curve is 8 at
+    /// 0.01 and 4 at 0.001 nodes per triangle, so at 60× fewer nodes (1/60, between 0.1 and
+    /// 0.01 on the unculled curve, above 0.01 on the culled one) the culled speed is out of
+    /// range and the unculled one interpolates in log(nodes).
+    #[test]
+    fn smaller_trees_interpolate_in_log_nodes_and_never_extrapolate() {
+        let points = [
+            point("none", 1.0, 10.0),
+            point("none", 0.1, 6.0),
+            point("none", 0.01, 2.0),
+            point("masked", 0.01, 8.0),
+            point("masked", 0.001, 4.0),
+        ];
+        let refs: Vec<&Point> = points.iter().collect();
+        let lines = smaller_trees(&refs, &[10.0, 20.0, 100.0]);
+        assert_eq!(lines.len(), 3);
+        assert!(lines[0].contains("none 0.60x"), "{}", lines[0]);
+        assert!(lines[0].contains("masked out of range"), "{}", lines[0]);
+        // 1/20 lies log10(2) ≈ 0.301 of the way from 0.1 to 0.01: 6 − 4·0.301 = 4.80.
+        assert!(lines[1].contains("none 0.48x"), "{}", lines[1]);
+        // 1/100 = 0.01 is the culled curve's end: 8 Mrays/s, 0.80×.
+        assert!(lines[2].contains("masked 0.80x"), "{}", lines[2]);
+        assert!(lines[2].contains("none 0.20x"), "{}", lines[2]);
+    }
+
+    #[test]
+    fn findings_are_given_per_isa() {
+        let mut points = vec![point("none", 1.0, 10.0), point("masked", 0.1, 12.0)];
+        let mut other = point("none", 1.0, 20.0);
+        other.isa = "avx512".into();
+        points.push(other);
+        let lines = findings(&points);
+        assert!(
+            lines[0].starts_with("avx2: best with culling: 12.00"),
+            "{lines:?}"
+        );
+        assert!(
+            lines.iter().any(|l| l.starts_with("avx512: 10x fewer")),
+            "{lines:?}"
+        );
+        assert!(
+            !lines.iter().any(|l| l.starts_with("avx512: best")),
+            "{lines:?}"
+        );
+    }
 }
