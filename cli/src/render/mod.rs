@@ -11,7 +11,7 @@ use kdbeam::{Camera, Hit, HitPacket, Mesh, RayPacket};
 use rayon::prelude::*;
 
 pub use image::{heat_color, Image};
-pub use ray_set::{ray_set, RaySet};
+pub use ray_set::{RaySet, Rays, SEED};
 pub use shade::shade;
 
 /// The primary hits of one frame and what they cost.
