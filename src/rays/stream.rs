@@ -101,38 +101,20 @@ pub fn intersect_sorted(
     bounds: &Aabb,
     hits: &mut [Hit],
 ) -> Result<PacketCounters> {
-    check_lengths(rays.len(), hits.len())?;
-    let order = sorted_order(rays, bounds);
-    let n = tracer.packet().ray_count();
-    let mut sorted = vec![Hit::NONE; rays.len()];
-    let trace = |(chunk, out): (&[u32], &mut [Hit])| {
-        let mut counters = PacketCounters::default();
-        let mut hp = HitPacket::default();
-        let packet = gather(rays, chunk);
-        tracer.intersect_packet_counted(&packet, packet.full_mask(), &mut hp, &mut counters);
-        for (j, h) in out.iter_mut().enumerate() {
-            *h = hp.hit(j);
-        }
-        counters
-    };
-    #[cfg(feature = "parallel")]
-    let per_packet: Vec<PacketCounters> = order
-        .par_chunks(n)
-        .zip(sorted.par_chunks_mut(n))
-        .map(trace)
-        .collect();
-    #[cfg(not(feature = "parallel"))]
-    let per_packet: Vec<PacketCounters> = order
-        .chunks(n)
-        .zip(sorted.chunks_mut(n))
-        .map(trace)
-        .collect();
-    for (&i, h) in order.iter().zip(&sorted) {
-        hits[i as usize] = *h;
-    }
-    let mut counters = PacketCounters::default();
-    per_packet.iter().for_each(|c| counters.add(c));
-    Ok(counters)
+    trace_sorted(
+        tracer,
+        rays,
+        bounds,
+        hits,
+        Hit::NONE,
+        |packet, out, counters| {
+            let mut hp = HitPacket::default();
+            tracer.intersect_packet_counted(packet, packet.full_mask(), &mut hp, counters);
+            for (j, h) in out.iter_mut().enumerate() {
+                *h = hp.hit(j);
+            }
+        },
+    )
 }
 
 /// Whether each ray of `rays` hits anything in `[tmin, tmax]`, as a sorted stream (as
@@ -147,17 +129,44 @@ pub fn occluded_sorted(
     bounds: &Aabb,
     occluded: &mut [bool],
 ) -> Result<PacketCounters> {
-    check_lengths(rays.len(), occluded.len())?;
+    trace_sorted(
+        tracer,
+        rays,
+        bounds,
+        occluded,
+        false,
+        |packet, out, counters| {
+            let bits = tracer.occluded_packet_counted(packet, packet.full_mask(), counters);
+            for (j, o) in out.iter_mut().enumerate() {
+                *o = bits >> j & 1 != 0;
+            }
+        },
+    )
+}
+
+/// Sorts `rays` ([`sorted_order`]), cuts them into packets of the tracer's size, answers each
+/// with `query` (the packet, its answers in sorted order from `init`, its counters) and writes
+/// `out[i]` for `rays[i]`.
+fn trace_sorted<T: Copy + Send + Sync>(
+    tracer: &Tracer<'_>,
+    rays: &[Ray],
+    bounds: &Aabb,
+    out: &mut [T],
+    init: T,
+    query: impl Fn(&RayPacket, &mut [T], &mut PacketCounters) + Sync,
+) -> Result<PacketCounters> {
+    if rays.len() != out.len() {
+        return Err(Error::InvalidParameter {
+            name: "stream output",
+            message: format!("{} outputs for {} rays", out.len(), rays.len()),
+        });
+    }
     let order = sorted_order(rays, bounds);
     let n = tracer.packet().ray_count();
-    let mut sorted = vec![false; rays.len()];
-    let trace = |(chunk, out): (&[u32], &mut [bool])| {
+    let mut sorted = vec![init; rays.len()];
+    let trace = |(chunk, answers): (&[u32], &mut [T])| {
         let mut counters = PacketCounters::default();
-        let packet = gather(rays, chunk);
-        let bits = tracer.occluded_packet_counted(&packet, packet.full_mask(), &mut counters);
-        for (j, o) in out.iter_mut().enumerate() {
-            *o = bits >> j & 1 != 0;
-        }
+        query(&gather(rays, chunk), answers, &mut counters);
         counters
     };
     #[cfg(feature = "parallel")]
@@ -172,8 +181,8 @@ pub fn occluded_sorted(
         .zip(sorted.chunks_mut(n))
         .map(trace)
         .collect();
-    for (&i, o) in order.iter().zip(&sorted) {
-        occluded[i as usize] = *o;
+    for (&i, answer) in order.iter().zip(&sorted) {
+        out[i as usize] = *answer;
     }
     let mut counters = PacketCounters::default();
     per_packet.iter().for_each(|c| counters.add(c));
@@ -188,17 +197,6 @@ fn gather(rays: &[Ray], chunk: &[u32]) -> RayPacket {
         packet.set(j, &rays[i as usize]);
     }
     packet
-}
-
-fn check_lengths(rays: usize, out: usize) -> Result<()> {
-    if rays == out {
-        Ok(())
-    } else {
-        Err(Error::InvalidParameter {
-            name: "stream output",
-            message: format!("{out} outputs for {rays} rays"),
-        })
-    }
 }
 
 #[cfg(test)]
