@@ -49,11 +49,6 @@ impl RaySet {
     pub fn any_hit(self) -> bool {
         self.workload(1).is_some_and(Workload::any_hit)
     }
-
-    /// Are these camera packets, which Embree traces best in its coherent context?
-    pub fn coherent(self) -> bool {
-        self == RaySet::Primary
-    }
 }
 
 /// The rays of a set for one scene and camera, made once for every measurement.
