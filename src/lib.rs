@@ -33,7 +33,9 @@
 //! - [`kdtree`]: the SAH build ([`BuildParams`], [`KdTreeBuilder`] for rebuilds in place), the
 //!   node layout and [`BuildStats`].
 //! - [`trace`]: [`Tracer`], [`Intersector`], [`Culling`], streams and the f64 references.
-//! - [`rays`]: the standard [`Camera`] (pixel-tile packets) and random ray sets.
+//! - [`rays`]: the [`Camera`] (standard or look-at; pixel-tile packets), random ray sets, the
+//!   secondary-ray workloads of a renderer ([`rays::secondary`]: shadow, ambient occlusion,
+//!   diffuse) and sorted streams ([`rays::stream`]).
 //! - [`kernels`]: the `no_std` kernels (SIMD lanes, ray × triangle tests, slabs, the beam).
 //!
 //! # ISA

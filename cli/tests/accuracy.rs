@@ -35,8 +35,15 @@ fn culling_modes_agree_with_no_culling_and_score_the_same_against_the_oracle() {
         &BuildParams::default().with_ci_over_ct(0.3),
     )
     .unwrap();
-    for set in [RaySet::Primary, RaySet::Random] {
-        let work = Workload::new(set, &tree, 48, 48);
+    let sets = [
+        RaySet::Primary,
+        RaySet::Random,
+        RaySet::Shadow,
+        RaySet::Ao,
+        RaySet::Diffuse,
+    ];
+    for set in sets {
+        let work = Workload::new(set, &mesh, &tree, 48, 48, 4).unwrap();
         let oracle = reference_hits(&tree, &work.rays);
         for intersector in Intersector::ALL {
             for isa in Isa::available() {
@@ -74,7 +81,7 @@ fn culling_modes_agree_with_no_culling_and_score_the_same_against_the_oracle() {
 fn scaled_t_is_measured_as_its_relative_error() {
     let mesh = procedural::builtin("icosphere:3").unwrap();
     let tree = KdTree::build(&mesh, &BuildParams::default()).unwrap();
-    let work = Workload::new(RaySet::Primary, &tree, 64, 64);
+    let work = Workload::new(RaySet::Primary, &mesh, &tree, 64, 64, 4).unwrap();
     let oracle = reference_hits(&tree, &work.rays);
     let tracer = Tracer::new(&tree).with_intersector(Intersector::Watertight);
     let (mut hits, _) = work.trace(&tracer).unwrap();

@@ -34,7 +34,14 @@ fn render_writes_a_png_of_the_default_scene_and_prints_its_statistics() {
         png.path().to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
-    for needle in ["kd-tree", "Mrays/s", "tests/ray", "eliminated"] {
+    for needle in [
+        "kd-tree",
+        "Mrays/s",
+        "tests/ray",
+        "eliminated",
+        "shadow",
+        "occluded",
+    ] {
         assert!(stdout.contains(needle), "no {needle:?} in:\n{stdout}");
     }
     let bytes = std::fs::read(&png).expect("render wrote the PNG");

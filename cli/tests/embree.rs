@@ -7,7 +7,9 @@ mod common;
 use kdbeam::kernels::intersect::watertight::WatertightRay;
 use kdbeam::rays::{random_rays, Camera};
 use kdbeam::{BuildParams, Hit, Intersector, KdTree, Mesh, Ray, Tracer, Triangle, Vec3};
-use kdbeam_cli::embree::{primary_rays, Context, EmbreeRays, EmbreeScene, QUERY_WIDTHS};
+use kdbeam_cli::embree::{
+    primary_rays, Context, EmbreeOptions, EmbreeRays, EmbreeScene, QUERY_WIDTHS,
+};
 
 /// Relative tolerance on `t` when both report the same triangle. Both compute `t` in `f32`
 /// from the same vertices (Embree's robust mode by a Plücker-style test, kdbeam by the sheared
@@ -290,4 +292,135 @@ fn copies_of_converted_rays_trace_as_one_call_does() {
             assert_eq!(hits, want, "width {width}");
         }
     }
+}
+
+/// The share of shadow and AO rays on which Embree's occlusion answer must agree with
+/// kdbeam's, as for closest hits ([`MIN_AGREEMENT`]).
+const MIN_OCCLUSION_AGREEMENT: f64 = MIN_AGREEMENT;
+
+/// A disagreement on occlusion is a near-grazing or end-of-segment case, not an error, when the
+/// f64 oracle's closest hit lies within this relative distance of `tmax` (the occluder touches
+/// the end of the segment, where rounding decides), or when the ray meets the hit triangle's
+/// plane at a grazing angle, |cos| below this value (both tests' rounding decides whether the
+/// ray clips an edge). Such rays are reported, and must stay rare (below 1 − [`MIN_AGREEMENT`]).
+const GRAZING: f64 = 1e-3;
+
+/// Shadow and AO rays from the primary hits (the library's workloads, seed 1): Embree's
+/// rtcOccluded1/4/8/16 and rtcOccluded1M, in both contexts, answer as kdbeam's watertight
+/// scalar `occluded`; the diffuse bounce's closest hits agree as primary rays do.
+#[test]
+fn secondary_rays_agree_with_the_watertight_scalar_path() {
+    use kdbeam::rays::secondary::{SecondaryRays, Workload};
+    use kdbeam::trace::reference::kd_oracle;
+    for (name, mesh) in scenes() {
+        let tree = KdTree::build(&mesh, &BuildParams::default()).expect("tree builds");
+        let tracer = watertight(&tree);
+        // Robust mode, as watertight as kdbeam's test: no ray leaks through a shared edge.
+        let options = EmbreeOptions {
+            robust: true,
+            ..EmbreeOptions::default()
+        };
+        let scene = EmbreeScene::with_options(&mesh, &options).expect("embree builds");
+        let camera = Camera::standard(&tree.bounds(), 128, 128);
+        for workload in [
+            Workload::Shadow,
+            Workload::AmbientOcclusion { rays: 4 },
+            Workload::Diffuse,
+        ] {
+            let rays = SecondaryRays::from_camera(workload, &tracer, &mesh, &camera, 1)
+                .expect("rays")
+                .rays;
+            if rays.is_empty() {
+                continue;
+            }
+            let kd_occluded: Vec<bool> = rays.iter().map(|r| tracer.occluded(r)).collect();
+            let reference: Vec<Hit> = rays.iter().map(|r| tracer.intersect(r)).collect();
+            let mut layouts: Vec<(String, EmbreeRays)> = QUERY_WIDTHS
+                .iter()
+                .map(|&w| {
+                    (
+                        format!("{w}"),
+                        EmbreeRays::new(&rays, w).expect("a valid width"),
+                    )
+                })
+                .collect();
+            layouts.push(("1M".into(), EmbreeRays::stream(&rays)));
+            for (call, layout) in &layouts {
+                for context in Context::ALL {
+                    let what = format!("{name} {} {call} {}", workload.name(), context.name());
+                    let mut work = layout.clone();
+                    if workload.any_hit() {
+                        scene.occlude(&mut work, context);
+                        let mut occluded = vec![false; rays.len()];
+                        work.occluded(&mut occluded).expect("lengths");
+                        let (mut agree, mut grazing) = (0, 0);
+                        for (i, ray) in rays.iter().enumerate() {
+                            if occluded[i] == kd_occluded[i] {
+                                agree += 1;
+                            } else if is_grazing(&mesh, &tree, ray) {
+                                grazing += 1;
+                            }
+                        }
+                        let share = agree as f64 / rays.len() as f64;
+                        println!(
+                            "{what} rtcOccluded: {agree}/{} agree, {grazing} near-grazing, {} other",
+                            rays.len(),
+                            rays.len() - agree - grazing
+                        );
+                        assert!(share >= MIN_OCCLUSION_AGREEMENT, "{what}: {share}");
+                        assert_eq!(agree + grazing, rays.len(), "{what}: a clear disagreement");
+                    } else {
+                        scene.trace(&mut work, context);
+                        let mut hits = vec![Hit::NONE; rays.len()];
+                        work.hits(&mut hits).expect("lengths");
+                        let mut agreement = Agreement::new(&mesh);
+                        for ((hit, ray), kd) in hits.iter().zip(&rays).zip(&reference) {
+                            agreement.add(&mesh, ray, hit, kd);
+                        }
+                        agreement.check(&format!("{what} rtcIntersect"));
+                    }
+                }
+            }
+        }
+    }
+
+    /// Is `ray` a case where rounding decides occlusion (see [`GRAZING`])?
+    fn is_grazing(mesh: &Mesh, tree: &KdTree, ray: &Ray) -> bool {
+        let mut unbounded = *ray;
+        unbounded.tmax = f32::INFINITY;
+        let Some(hit) = kd_oracle(tree, &unbounded) else {
+            return false;
+        };
+        let tri = mesh.triangle(hit.triangle as usize);
+        let n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).normalize();
+        let cos = f64::from(n.dot(ray.direction.normalize())).abs();
+        (hit.t - f64::from(ray.tmax)).abs() <= GRAZING * f64::from(ray.tmax) || cos < GRAZING
+    }
+}
+
+/// Packets made of given groups (kdbeam's tile packets, partly filled) read back in the order
+/// of the groups, with the hits of consecutive packets; a group wider than the call is an error.
+#[test]
+fn grouped_packets_trace_as_consecutive_ones() {
+    let mesh = kdbeam::scene::procedural::builtin("icosphere").expect("built-in scene");
+    let scene = EmbreeScene::new(&mesh).expect("embree builds");
+    let rays = random_rays(&mesh.bounds(), 100, 9);
+    let groups: Vec<&[Ray]> = [3, 16, 1, 9, 16, 5]
+        .iter()
+        .scan(0, |start, &n| {
+            let g = &rays[*start..*start + n];
+            *start += n;
+            Some(g)
+        })
+        .collect();
+    let flat: Vec<Ray> = groups.concat();
+    let want = embree_hits(&scene, &flat, 1, Context::Incoherent);
+    assert!(want.iter().any(Hit::is_hit));
+    let mut work = EmbreeRays::from_groups(&groups, 16).expect("groups fit");
+    assert_eq!(work.len(), flat.len());
+    scene.trace(&mut work, Context::Incoherent);
+    let mut hits = vec![Hit::NONE; flat.len()];
+    work.hits(&mut hits).expect("lengths");
+    assert_eq!(hits, want);
+    assert!(EmbreeRays::from_groups(&groups, 8).is_err());
 }

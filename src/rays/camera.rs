@@ -3,12 +3,15 @@
 use glam::Vec3;
 use kdbeam_kernels::{Aabb, PacketShape, Ray, RayPacket};
 
-/// A pinhole camera looking along +z at a scene's box.
+use crate::{Error, Result};
+
+/// A pinhole camera: the standard camera looking along +z at a scene's box, or any eye, target
+/// and field of view ([`Camera::look_at`]).
 ///
-/// With `c` the box centre and `h = ½·max(x extent, y extent)`, the eye is at
-/// `(cx, cy, zmin − 2h)`; pixel `(x, y)` of `W × H` looks along `normalize(u/2, v/2, 1)` with
-/// `u = (x + ½)/W·2 − 1`, `v = (y + ½)/H·2 − 1`. A field of view of 2·atan(½) ≈ 53° frames the
-/// box's front face.
+/// Pixel `(x, y)` of `W × H` looks along `normalize(u·s·right + v·s·up + forward)` with
+/// `u = (x + ½)/W·2 − 1`, `v = (y + ½)/H·2 − 1` and `s = tan(fov/2)`. The standard camera has
+/// `right = +x`, `up = +y`, `forward = +z` and `s = ½` (a field of view of 2·atan(½) ≈ 53°,
+/// which frames the box's front face): its rays are `normalize(u/2, v/2, 1)`, bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Where the rays start.
@@ -17,11 +20,18 @@ pub struct Camera {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// `s·right`: the step of the direction per unit of `u`.
+    right: Vec3,
+    /// `s·up`: the step of the direction per unit of `v`.
+    up: Vec3,
+    /// The unit viewing direction.
+    forward: Vec3,
 }
 
 impl Camera {
-    /// The standard camera for a scene bounded by `bounds` (an empty box gives an eye at the
-    /// origin, every ray then misses).
+    /// The standard camera for a scene bounded by `bounds`: with `c` the box centre and
+    /// `h = ½·max(x extent, y extent)`, the eye at `(cx, cy, zmin − 2h)`, looking along +z
+    /// (an empty box gives an eye at the origin, every ray then misses).
     #[must_use]
     pub fn standard(bounds: &Aabb, width: u32, height: u32) -> Self {
         let eye = if bounds.is_empty() {
@@ -32,16 +42,99 @@ impl Camera {
             let h = 0.5 * e.x.max(e.y);
             Vec3::new(c.x, c.y, bounds.min.z - 2.0 * h)
         };
-        Camera { eye, width, height }
+        Camera {
+            eye,
+            width,
+            height,
+            right: Vec3::new(0.5, 0.0, 0.0),
+            up: Vec3::new(0.0, 0.5, 0.0),
+            forward: Vec3::Z,
+        }
+    }
+
+    /// A camera at `eye` looking at `target` with a vertical and horizontal field of view of
+    /// `fov_degrees`, +y up: `forward = normalize(target − eye)`, `right = normalize(+y ×
+    /// forward)`, `up = forward × right` (so that `eye = (cx, cy, zmin − 2h)`, `target = c`,
+    /// 2·atan(½) degrees is the standard camera's frame).
+    ///
+    /// ```
+    /// use kdbeam::{Aabb, Camera, Vec3};
+    ///
+    /// // The centre pixel of an odd-sized image looks at the target.
+    /// let camera = Camera::look_at(Vec3::new(0.5, 0.5, -1.0), Vec3::splat(0.5), 60.0, 65, 65)?;
+    /// assert!(camera.ray(32, 32).direction.abs_diff_eq(Vec3::Z, 1e-6));
+    /// // The standard camera is the look-at camera of its eye, the box centre and 2·atan(½).
+    /// let bounds = Aabb::from_points([Vec3::ZERO, Vec3::ONE]);
+    /// let standard = Camera::standard(&bounds, 8, 8);
+    /// let fov = 2.0 * 0.5f32.atan().to_degrees();
+    /// let same = Camera::look_at(standard.eye, bounds.center(), fov, 8, 8)?;
+    /// assert!(same.ray(1, 6).direction.abs_diff_eq(standard.ray(1, 6).direction, 1e-6));
+    /// // Looking straight up or down has no "right": an error, as are a zero or bad angle.
+    /// assert!(Camera::look_at(Vec3::ZERO, Vec3::Y, 60.0, 64, 64).is_err());
+    /// assert!(Camera::look_at(Vec3::ZERO, Vec3::Z, 180.0, 64, 64).is_err());
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `eye` or `target` is not finite, when they coincide or
+    /// the view is parallel to +y (no right vector), or when `fov_degrees` is not in (0, 180).
+    pub fn look_at(
+        eye: Vec3,
+        target: Vec3,
+        fov_degrees: f32,
+        width: u32,
+        height: u32,
+    ) -> Result<Self> {
+        let invalid = |message: &str| Error::InvalidParameter {
+            name: "camera",
+            message: message.to_string(),
+        };
+        if !(eye.is_finite() && target.is_finite()) {
+            return Err(invalid("eye and target must be finite"));
+        }
+        if !(fov_degrees > 0.0 && fov_degrees < 180.0) {
+            return Err(invalid("the field of view must be in (0, 180) degrees"));
+        }
+        let forward = (target - eye).normalize_or_zero();
+        let right = Vec3::Y.cross(forward).normalize_or_zero();
+        if forward == Vec3::ZERO || right == Vec3::ZERO {
+            return Err(invalid(
+                "eye and target must differ, and the view must not be vertical",
+            ));
+        }
+        let up = forward.cross(right);
+        let s = (0.5 * fov_degrees.to_radians()).tan();
+        Ok(Camera {
+            eye,
+            width,
+            height,
+            right: right * s,
+            up: up * s,
+            forward,
+        })
+    }
+
+    /// The unit viewing direction (the direction through the image centre).
+    #[must_use]
+    pub fn forward(&self) -> Vec3 {
+        self.forward
+    }
+
+    /// The same camera with an image of `width × height` pixels.
+    #[must_use]
+    pub fn with_size(self, width: u32, height: u32) -> Self {
+        Camera {
+            width,
+            height,
+            ..self
+        }
     }
 
     /// The primary ray through the centre of pixel `(x, y)`, `t` over `[0, +inf)`.
     #[inline]
     #[must_use]
     pub fn ray(&self, x: u32, y: u32) -> Ray {
-        let half_u = 0.5 * screen(x, self.width);
-        let half_v = 0.5 * screen(y, self.height);
-        let (dx, dy, dz) = unit_direction(half_u, half_v);
+        let (dx, dy, dz) = self.direction(screen(x, self.width), screen(y, self.height));
         Ray::new(self.eye, Vec3::new(dx, dy, dz))
     }
 
@@ -54,7 +147,7 @@ impl Camera {
         let cols = cols as usize;
         packet.set_len(cols * rows as usize);
         for r in 0..rows as usize {
-            let half_v = 0.5 * screen(y0 + r as u32, self.height);
+            let v = screen(y0 + r as u32, self.height);
             let row = r * cols..(r + 1) * cols;
             let [direction_x, direction_y, direction_z] = &mut packet.direction;
             let directions = direction_x[row.clone()]
@@ -62,8 +155,7 @@ impl Camera {
                 .zip(&mut direction_y[row.clone()])
                 .zip(&mut direction_z[row.clone()]);
             for (c, ((dx, dy), dz)) in directions.enumerate() {
-                let half_u = 0.5 * screen(x0 + c as u32, self.width);
-                (*dx, *dy, *dz) = unit_direction(half_u, half_v);
+                (*dx, *dy, *dz) = self.direction(screen(x0 + c as u32, self.width), v);
             }
             for (a, origin) in packet.origin.iter_mut().enumerate() {
                 origin[row.clone()].fill(self.eye[a]);
@@ -117,12 +209,19 @@ fn screen(i: u32, n: u32) -> f32 {
     (i as f32 + 0.5) / n as f32 * 2.0 - 1.0
 }
 
-/// `normalize(x, y, 1)` rounded as glam rounds it: `v · (1 / √(v·v))`, the dot product summed
-/// x, y, z.
-#[inline(always)]
-fn unit_direction(x: f32, y: f32) -> (f32, f32, f32) {
-    let inv = 1.0 / (x * x + y * y + 1.0).sqrt();
-    (x * inv, y * inv, inv)
+impl Camera {
+    /// `normalize(u·right + v·up + forward)` rounded as glam rounds it: `w · (1 / √(w·w))`, the
+    /// dot product summed x, y, z. For the standard camera the sum is exactly `(u/2, v/2, 1)`
+    /// (the other terms are zeros), so its rays keep their bits.
+    #[inline(always)]
+    fn direction(&self, u: f32, v: f32) -> (f32, f32, f32) {
+        let (r, up, f) = (self.right, self.up, self.forward);
+        let x = u * r.x + v * up.x + f.x;
+        let y = u * r.y + v * up.y + f.y;
+        let z = u * r.z + v * up.z + f.z;
+        let inv = 1.0 / (x * x + y * y + z * z).sqrt();
+        (x * inv, y * inv, z * inv)
+    }
 }
 
 #[cfg(test)]

@@ -190,10 +190,16 @@ impl<'t> Tracer<'t> {
     /// Is anything hit in `[tmin, tmax]`? (Shadow rays.) `false` for a ray that cannot be traced.
     #[must_use]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_counted(ray).0
+    }
+
+    /// [`Tracer::occluded`], with its traversal counters.
+    #[must_use]
+    pub fn occluded_counted(&self, ray: &Ray) -> (bool, RayCounters) {
         match self.intersector {
-            Intersector::KenslerShirley => single::any_hit(self.tree, ray, &KsTest).0,
+            Intersector::KenslerShirley => single::any_hit(self.tree, ray, &KsTest),
             Intersector::Watertight => {
-                single::any_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray))).0
+                single::any_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray)))
             }
         }
     }
@@ -305,32 +311,42 @@ impl<'t> Tracer<'t> {
     /// extra tests find (see [`Tracer::intersect_packet`]).
     #[must_use]
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
+        self.occluded_packet_counted(packet, active, &mut PacketCounters::default())
+    }
+
+    /// [`Tracer::occluded_packet`], adding its work to `counters`.
+    pub fn occluded_packet_counted(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+        counters: &mut PacketCounters,
+    ) -> u64 {
         match (self.intersector, self.culling.interval_traversal()) {
             (Intersector::KenslerShirley, false) => {
-                self.occluded_task::<packet::KsLanes, false>(packet, active)
+                self.occluded_task::<packet::KsLanes, false>(packet, active, counters)
             }
             (Intersector::KenslerShirley, true) => {
-                self.occluded_task::<packet::KsLanes, true>(packet, active)
+                self.occluded_task::<packet::KsLanes, true>(packet, active, counters)
             }
             (Intersector::Watertight, false) => {
-                self.occluded_task::<packet::WatertightLaneTest, false>(packet, active)
+                self.occluded_task::<packet::WatertightLaneTest, false>(packet, active, counters)
             }
             (Intersector::Watertight, true) => {
-                self.occluded_task::<packet::WatertightLaneTest, true>(packet, active)
+                self.occluded_task::<packet::WatertightLaneTest, true>(packet, active, counters)
             }
         }
     }
 
-    /// [`Tracer::occluded_packet`] with the test `F` and the traversal `INTERVAL`.
+    /// [`Tracer::occluded_packet_counted`] with the test `F` and the traversal `INTERVAL`.
     fn occluded_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
         &self,
         packet: &RayPacket,
         active: u64,
+        counters: &mut PacketCounters,
     ) -> u64 {
-        let mut counters = PacketCounters::default();
         packet::with_stack(|stack| {
             let task = OccludedPacket::<F, INTERVAL> {
-                query: self.query(packet, active, stack, &mut counters),
+                query: self.query(packet, active, stack, counters),
                 test: PhantomData,
             };
             self.dispatch.run(task)

@@ -19,9 +19,13 @@ pub(crate) struct AccuracyArgs {
     /// Image size of the primary rays (and W·H random rays), WIDTHxHEIGHT.
     #[arg(long, default_value = "512x512", value_parser = super::parse_size)]
     size: (u32, u32),
-    /// Ray sets, comma separated: primary, random (slower: incoherent packets).
+    /// Ray sets, comma separated: primary, random (slower: incoherent packets), and the
+    /// secondary rays of the primary hits: shadow, ao, diffuse.
     #[arg(long, value_enum, value_delimiter = ',', default_value = "primary")]
     rays: Vec<RaySet>,
+    /// Ambient-occlusion rays per primary hit (`--rays ao`).
+    #[arg(long, default_value_t = kdbeam::rays::secondary::DEFAULT_AO_RAYS, value_parser = clap::value_parser!(u32).range(1..=64))]
+    ao_rays: u32,
     /// ISAs to measure, comma separated (default: every one this CPU runs).
     #[arg(long, value_delimiter = ',')]
     isa: Vec<Isa>,
@@ -158,7 +162,7 @@ pub(crate) fn run(args: AccuracyArgs) -> Result<()> {
             KdTree::build(&mesh, &BuildParams::default())
         })?;
         for &set in &args.rays {
-            let work = Workload::new(set, &tree, args.size.0, args.size.1);
+            let work = Workload::new(set, &mesh, &tree, args.size.0, args.size.1, args.ao_rays)?;
             let reference =
                 with_spinner("f64 oracle reference", || reference_hits(&tree, &work.rays));
             for intersector in Intersector::ALL {

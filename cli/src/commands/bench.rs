@@ -2,30 +2,59 @@
 //! optionally next to Embree's, with kdbeam's best row against Embree's best per context.
 //!
 //! Both sides are timed the same way: the rays are made and converted into each side's own
-//! layout (kdbeam's [`RayPacket`]s of pixel tiles or of consecutive rays, Embree's SoA packets)
-//! before any timer starts, each configuration runs once untimed, and the median of the same
-//! number of timed repetitions is reported. Only tracing is timed, writing every hit out.
+//! layout (kdbeam's [`RayPacket`]s of pixel tiles or of consecutive rays, Embree's SoA packets
+//! and stream arrays) before any timer starts, each configuration runs once untimed, and the
+//! median of the same number of timed repetitions is reported. Only tracing is timed, writing
+//! every hit (or occlusion flag, for shadow and AO rays) out — and, for kdbeam's sorted
+//! streams, the sort and the gathering into packets, which a renderer pays for.
 
 use std::time::Instant;
 
+use kdbeam::rays::secondary::DEFAULT_AO_RAYS;
+use kdbeam::rays::stream::{intersect_sorted, occluded_sorted};
 use kdbeam::trace::{Culling, Intersector};
-use kdbeam::{BuildParams, Camera, Hit, HitPacket, Isa, Ray, RayPacket, Tracer};
-use kdbeam_cli::render::{self, RaySet};
+use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Ray, RayPacket, Tracer};
+use kdbeam_cli::render::{RaySet, Rays};
 use kdbeam_cli::{Error, Result};
 use rayon::prelude::*;
 
-use super::{build_tree, load_scene, packet_shape, thread_pool, TreeArgs};
+use super::{build_tree, load_scene, packet_shape, thread_pool, CameraArgs, TreeArgs};
+
+/// How kdbeam's packets are made of the rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Layout {
+    /// Pixel tiles (primary and secondary rays) or consecutive rays (random rays).
+    Tiles,
+    /// The whole set sorted by octant and origin Morton code, then cut into packets (not for
+    /// primary rays); the sort is timed.
+    Stream,
+}
 
 #[derive(clap::Args)]
 pub(crate) struct BenchArgs {
     /// Scenes: paths, shared scene names or builtin:NAME (default builtin:default).
     scenes: Vec<String>,
-    /// Ray set.
+    /// Ray set: primary, random, or the secondary rays of the camera's primary hits (shadow,
+    /// ao, diffuse).
     #[arg(long, value_enum, default_value = "primary")]
     rays: RaySet,
-    /// Image size (primary) or ray count = W·H (random), WIDTHxHEIGHT.
+    /// Ambient-occlusion rays per primary hit (`--rays ao`).
+    #[arg(long, default_value_t = DEFAULT_AO_RAYS, value_parser = clap::value_parser!(u32).range(1..=64))]
+    ao_rays: u32,
+    /// Image size (primary and secondary rays) or ray count = W·H (random), WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
     size: (u32, u32),
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// kdbeam's packet layouts, comma separated: tiles, stream (packet sizes above 1; primary
+    /// rays only in tiles).
+    #[arg(
+        long,
+        value_enum,
+        value_delimiter = ',',
+        default_value = "tiles,stream"
+    )]
+    layout: Vec<Layout>,
     /// ISAs to measure, comma separated (default: every one this CPU runs).
     #[arg(long, value_delimiter = ',')]
     isa: Vec<Isa>,
@@ -51,9 +80,11 @@ pub(crate) struct BenchArgs {
     /// One JSON object per line instead of a table.
     #[arg(long)]
     json: bool,
-    /// Also measure Embree's rtcIntersect1/4/8/16 on the same rays (rows with isa "embree";
-    /// primary rays in kdbeam's 2x2, 4x2, 4x4 and 8x8 tiles; tests/ray is not counted), in
-    /// each context of --embree-context. Embree runs in robust mode (intersector
+    /// Also measure Embree on the same rays (rows with isa "embree"; tests/ray is not
+    /// counted), in each context of --embree-context: rtcIntersect1/4/8/16 and the stream call
+    /// rtcIntersect1M, or rtcOccluded1/4/8/16/1M for shadow and AO rays. Packets of primary
+    /// and secondary rays are kdbeam's pixel tiles of the same size (2x2, 4x2, 4x4; single
+    /// rays in 8x8 tile order); streams are the rays in pixel order. Embree runs in robust mode (intersector
     /// "embree_robust") when --intersector is watertight, otherwise with its default scene
     /// flags (intersector "embree"). Needs a build with `--features embree`.
     #[arg(long)]
@@ -86,6 +117,9 @@ pub(crate) struct Row {
     rays: &'static str,
     pub(crate) isa: String,
     pub(crate) packet: usize,
+    /// `single`, `tiles`, `consecutive` (random rays in packets), `stream` (kdbeam: sorted;
+    /// Embree: rtcIntersect1M/rtcOccluded1M) or `packets` (Embree's 4/8/16-wide calls).
+    pub(crate) layout: &'static str,
     intersector: &'static str,
     pub(crate) culling: String,
     /// The kd-tree's SAH cost ratio; none for Embree.
@@ -114,6 +148,7 @@ struct Best {
     threads: usize,
     kdbeam_isa: String,
     kdbeam_packet: usize,
+    kdbeam_layout: &'static str,
     kdbeam_culling: String,
     kdbeam_ci_over_ct: Option<f32>,
     kdbeam_mrays_per_s: f64,
@@ -121,7 +156,8 @@ struct Best {
     /// Is `context` the one these rays call for (coherent for primary rays, incoherent for
     /// random ones), the fair comparison?
     context_matches_rays: bool,
-    embree_packet: usize,
+    /// The Embree call of the best row, e.g. `rtcOccluded16` or `rtcIntersect1M`.
+    embree_call: String,
     embree_mrays_per_s: f64,
     /// kdbeam's Mrays/s over Embree's.
     ratio: f64,
@@ -161,11 +197,12 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     };
     if !args.json {
         println!(
-            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>9}",
             "scene",
             "rays",
             "isa",
             "packet",
+            "layout",
             "culling",
             "ci",
             "context",
@@ -178,60 +215,71 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     for scene in scene_names(&args.scenes) {
         let (name, mesh) = load_scene(scene)?;
         let mut rows = Vec::new();
-        let rays = RaysOf::new(args, &mesh.bounds());
+        // Made from the first tree's primary hits: every tree and tracer gives the same hits.
+        let mut rays: Option<RaysOf> = None;
         for &ci_over_ct in &args.ci_over_ct {
             let tree = build_tree(&mesh, &tree_args(args, ci_over_ct))?;
+            if rays.is_none() {
+                rays = Some(RaysOf::new(args, &mesh, &Tracer::new(&tree))?);
+            }
+            let rays = rays.as_ref().expect("made above");
             // The scalar single-ray Mrays/s per thread count, once measured.
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
-                let layout = rays.kdbeam_layout(packet)?;
-                // Single rays are never culled, and run on the scalar path: one row for them.
-                let (configs, cullings) = if packet == 1 {
-                    (&[Isa::Scalar][..], &args.culling[..1])
-                } else {
-                    (&isas[..], &args.culling[..])
-                };
-                for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
-                    for &isa in configs {
-                        for &culling in cullings {
-                            let tracer = Tracer::new(&tree)
-                                .with_intersector(args.intersector)
-                                .with_isa(isa)?
-                                .with_culling(culling);
-                            let (seconds, tests) =
-                                pool.install(|| measure(args.reps, &tracer, &layout));
-                            let mrays = layout.len() as f64 / seconds / 1e6;
-                            if packet == 1 {
-                                *scalar = Some(mrays);
+                for layout in rays.kdbeam_layouts(packet, &args.layout)? {
+                    // Single rays are never culled, and run on the scalar path: one row for them.
+                    let (configs, cullings) = if packet == 1 {
+                        (&[Isa::Scalar][..], &args.culling[..1])
+                    } else {
+                        (&isas[..], &args.culling[..])
+                    };
+                    for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
+                        for &isa in configs {
+                            for &culling in cullings {
+                                let mut tracer = Tracer::new(&tree)
+                                    .with_intersector(args.intersector)
+                                    .with_isa(isa)?
+                                    .with_culling(culling);
+                                if packet > 1 {
+                                    tracer = tracer.with_packet(packet_shape(packet)?);
+                                }
+                                let (seconds, tests) = pool.install(|| {
+                                    measure(args.reps, &tracer, &layout, args.rays.any_hit())
+                                });
+                                let mrays = layout.len() as f64 / seconds / 1e6;
+                                if packet == 1 {
+                                    *scalar = Some(mrays);
+                                }
+                                let row = Row {
+                                    scene: name.clone(),
+                                    rays: args.rays.name(),
+                                    isa: isa.to_string(),
+                                    packet,
+                                    layout: layout.name(args.rays),
+                                    intersector: args.intersector.name(),
+                                    culling: if packet == 1 {
+                                        "none".into()
+                                    } else {
+                                        culling.name()
+                                    },
+                                    ci_over_ct: Some(ci_over_ct),
+                                    context: None,
+                                    threads: *threads,
+                                    mrays_per_s: mrays,
+                                    tests_per_ray: tests,
+                                    speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
+                                };
+                                print_row(&row, args.json);
+                                rows.push(row);
                             }
-                            let row = Row {
-                                scene: name.clone(),
-                                rays: args.rays.name(),
-                                isa: isa.to_string(),
-                                packet,
-                                intersector: args.intersector.name(),
-                                culling: if packet == 1 {
-                                    "none".into()
-                                } else {
-                                    culling.name()
-                                },
-                                ci_over_ct: Some(ci_over_ct),
-                                context: None,
-                                threads: *threads,
-                                mrays_per_s: mrays,
-                                tests_per_ray: tests,
-                                speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
-                            };
-                            print_row(&row, args.json);
-                            rows.push(row);
                         }
                     }
                 }
             }
         }
         #[cfg(feature = "embree")]
-        if args.embree {
-            embree_rows(args, &name, &mesh, &rays, &pools, &mut rows)?;
+        if let (true, Some(rays)) = (args.embree, &rays) {
+            embree_rows(args, &name, &mesh, rays, &pools, &mut rows)?;
         }
         print_best(&rows, args.json);
         all.extend(rows);
@@ -251,54 +299,76 @@ fn tree_args(args: &BenchArgs, ci_over_ct: f32) -> TreeArgs {
 
 /// The rays of a scene, made once for every configuration.
 pub(crate) struct RaysOf {
-    set: RaySet,
-    camera: Camera,
-    /// Row by row for primary rays.
-    rays: Vec<Ray>,
+    rays: Rays,
+    /// The scene box, over which streams are sorted.
+    bounds: Aabb,
 }
 
 /// Rays in kdbeam's layout for one packet size.
 pub(crate) enum KdbeamRays {
     /// Single rays, for the scalar path.
     Single(Vec<Ray>),
-    /// Packets: pixel tiles of primary rays, consecutive random rays.
+    /// Packets: pixel tiles of primary and secondary rays, consecutive random rays.
     Packets(Vec<RayPacket>),
+    /// The rays, to be sorted over the box and cut into the tracer's packets.
+    Stream(Vec<Ray>, Aabb),
 }
 
 impl KdbeamRays {
     pub(crate) fn len(&self) -> usize {
         match self {
-            KdbeamRays::Single(rays) => rays.len(),
+            KdbeamRays::Single(rays) | KdbeamRays::Stream(rays, _) => rays.len(),
             KdbeamRays::Packets(packets) => packets.iter().map(RayPacket::len).sum(),
+        }
+    }
+
+    /// The row's layout name for rays of `set`.
+    fn name(&self, set: RaySet) -> &'static str {
+        match self {
+            KdbeamRays::Single(_) => "single",
+            KdbeamRays::Packets(_) if set == RaySet::Random => "consecutive",
+            KdbeamRays::Packets(_) => "tiles",
+            KdbeamRays::Stream(..) => "stream",
         }
     }
 }
 
 impl RaysOf {
-    pub(crate) fn new(args: &BenchArgs, bounds: &kdbeam::Aabb) -> RaysOf {
-        Self::of(args.rays, bounds, args.size)
+    /// The rays `args` asks for in `mesh`, secondary rays from the primary hits `tracer` finds.
+    pub(crate) fn new(
+        args: &BenchArgs,
+        mesh: &kdbeam::Mesh,
+        tracer: &Tracer<'_>,
+    ) -> Result<RaysOf> {
+        let bounds = mesh.bounds();
+        let camera = args.camera.camera(&bounds, args.size.0, args.size.1)?;
+        Ok(RaysOf {
+            rays: Rays::new(args.rays, mesh, tracer, &camera, args.ao_rays)?,
+            bounds,
+        })
     }
 
-    /// The rays of `set` for a scene bounded by `bounds` at `size` (the image, or W·H rays).
-    pub(crate) fn of(set: RaySet, bounds: &kdbeam::Aabb, size: (u32, u32)) -> RaysOf {
+    /// The standard camera's primary rays of a scene bounded by `bounds` at `size`.
+    pub(crate) fn primary(bounds: &Aabb, size: (u32, u32)) -> RaysOf {
         RaysOf {
-            set,
-            camera: Camera::standard(bounds, size.0, size.1),
-            rays: render::ray_set(set, bounds, size.0, size.1),
+            rays: Rays::primary(&kdbeam::Camera::standard(bounds, size.0, size.1)),
+            bounds: *bounds,
         }
     }
 
-    /// The rays as kdbeam traces them with packets of `packet` rays: the standard camera's
-    /// pixel tiles for primary rays, consecutive rays for random ones (the same packets as
-    /// Embree's), single rays for 1.
+    /// The rays as kdbeam traces them with packets of `packet` rays: the camera's pixel tiles
+    /// for primary rays, per pixel tile and sample for secondary rays, consecutive rays for
+    /// random ones (the same packets as Embree's), single rays for 1.
     pub(crate) fn kdbeam_layout(&self, packet: usize) -> Result<KdbeamRays> {
+        let r = &self.rays;
         if packet == 1 {
-            return Ok(KdbeamRays::Single(self.rays.clone()));
+            return Ok(KdbeamRays::Single(r.rays.clone()));
         }
         let shape = packet_shape(packet)?;
-        Ok(KdbeamRays::Packets(match self.set {
-            RaySet::Primary => self.camera.tile_packets(shape),
-            RaySet::Random => self
+        Ok(KdbeamRays::Packets(match (&r.secondary, r.set) {
+            (Some(secondary), _) => secondary.tile_packets(&r.camera, shape).packets,
+            (None, RaySet::Primary) => r.camera.tile_packets(shape),
+            (None, _) => r
                 .rays
                 .chunks(shape.ray_count())
                 .map(RayPacket::from_rays)
@@ -306,24 +376,88 @@ impl RaysOf {
         }))
     }
 
-    /// The rays as Embree traces them with rtcIntersect`width`: primary rays reordered into
-    /// kdbeam's tiles of `width` rays, random rays as they are.
+    /// The layouts of `layouts` for `packet`: single rays for 1, otherwise tiles and (but for
+    /// primary rays) sorted streams, as asked.
+    fn kdbeam_layouts(&self, packet: usize, layouts: &[Layout]) -> Result<Vec<KdbeamRays>> {
+        if packet == 1 {
+            return Ok(vec![self.kdbeam_layout(1)?]);
+        }
+        packet_shape(packet)?;
+        let mut out = Vec::new();
+        for layout in layouts {
+            match layout {
+                Layout::Tiles => out.push(self.kdbeam_layout(packet)?),
+                Layout::Stream if self.rays.set != RaySet::Primary => {
+                    out.push(KdbeamRays::Stream(self.rays.rays.clone(), self.bounds));
+                }
+                Layout::Stream => {}
+            }
+        }
+        Ok(out)
+    }
+
+    /// The rays as Embree traces them with rtcIntersect`width` (rtcOccluded`width`): kdbeam's
+    /// packets of `width` rays for 4, 8 and 16, single rays in 8×8 tile order for primary and
+    /// secondary rays, random rays as they are.
     #[cfg(feature = "embree")]
     pub(crate) fn embree_layout(&self, width: usize) -> Result<kdbeam_cli::embree::EmbreeRays> {
+        use kdbeam::PacketShape;
         use kdbeam_cli::embree::{primary_rays, EmbreeRays};
-        Ok(match self.set {
-            RaySet::Primary => EmbreeRays::new(&primary_rays(&self.camera, width)?.0, width)?,
-            RaySet::Random => EmbreeRays::new(&self.rays, width)?,
+        let r = &self.rays;
+        Ok(match (&r.secondary, r.set) {
+            (Some(secondary), _) => {
+                let shape = PacketShape::from_len(width).unwrap_or(PacketShape::P8x8);
+                let tiles = secondary.tile_packets(&r.camera, shape);
+                if width == 1 {
+                    let rays: Vec<Ray> = tiles.rays.iter().map(|&i| r.rays[i as usize]).collect();
+                    EmbreeRays::new(&rays, 1)?
+                } else {
+                    let packets: Vec<Vec<Ray>> = tiles
+                        .packets
+                        .iter()
+                        .map(|p| (0..p.len()).map(|j| p.ray(j)).collect())
+                        .collect();
+                    let groups: Vec<&[Ray]> = packets.iter().map(Vec::as_slice).collect();
+                    EmbreeRays::from_groups(&groups, width)?
+                }
+            }
+            (None, RaySet::Primary) => EmbreeRays::new(&primary_rays(&r.camera, width)?.0, width)?,
+            (None, _) => EmbreeRays::new(&r.rays, width)?,
         })
+    }
+
+    /// The rays in their own order (pixel by pixel, or as drawn) for Embree's stream calls.
+    #[cfg(feature = "embree")]
+    fn embree_stream(&self) -> kdbeam_cli::embree::EmbreeRays {
+        kdbeam_cli::embree::EmbreeRays::stream(&self.rays.rays)
     }
 }
 
 /// Median seconds of `tracer` on `rays` over `reps` timed runs after one untimed run, and
-/// ray–triangle tests per ray.
-pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays) -> (f64, f64) {
+/// ray–triangle tests per ray: closest hits, or occlusion when `any` (shadow and AO rays).
+pub(crate) fn measure(
+    reps: usize,
+    tracer: &Tracer<'_>,
+    rays: &KdbeamRays,
+    any: bool,
+) -> (f64, f64) {
     let n = rays.len();
     let mut hits = vec![Hit::NONE; n];
+    let mut occluded = vec![false; n];
     let (seconds, tests) = match rays {
+        KdbeamRays::Single(rays) if any => warm_then_median(reps, || {
+            let start = Instant::now();
+            let tests = rays
+                .par_iter()
+                .zip(occluded.par_iter_mut())
+                .map(|(r, o)| {
+                    let (hit, c) = tracer.occluded_counted(r);
+                    *o = hit;
+                    c.tests
+                })
+                .sum();
+            (start.elapsed().as_secs_f64(), tests)
+        }),
         KdbeamRays::Single(rays) => warm_then_median(reps, || {
             let start = Instant::now();
             let tests = rays
@@ -337,15 +471,37 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays) -> (f
                 .sum();
             (start.elapsed().as_secs_f64(), tests)
         }),
-        KdbeamRays::Packets(packets) => {
-            // Each packet's share of `hits`, cut before timing.
-            let mut slots: Vec<&mut [Hit]> = Vec::with_capacity(packets.len());
-            let mut rest = &mut hits[..];
-            for p in packets {
-                let (slot, tail) = rest.split_at_mut(p.len());
-                slots.push(slot);
-                rest = tail;
+        KdbeamRays::Stream(rays, bounds) => warm_then_median(reps, || {
+            let start = Instant::now();
+            let counters = if any {
+                occluded_sorted(tracer, rays, bounds, &mut occluded)
+            } else {
+                intersect_sorted(tracer, rays, bounds, &mut hits)
             }
+            .expect("one output per ray");
+            (start.elapsed().as_secs_f64(), counters.tests)
+        }),
+        KdbeamRays::Packets(packets) if any => {
+            let mut slots = split_per_packet(packets, &mut occluded);
+            warm_then_median(reps, || {
+                let start = Instant::now();
+                let tests = packets
+                    .par_iter()
+                    .zip(slots.par_iter_mut())
+                    .map(|(p, slot)| {
+                        let mut c = kdbeam::trace::PacketCounters::default();
+                        let bits = tracer.occluded_packet_counted(p, p.full_mask(), &mut c);
+                        for (j, o) in slot.iter_mut().enumerate() {
+                            *o = bits >> j & 1 != 0;
+                        }
+                        c.tests
+                    })
+                    .sum();
+                (start.elapsed().as_secs_f64(), tests)
+            })
+        }
+        KdbeamRays::Packets(packets) => {
+            let mut slots = split_per_packet(packets, &mut hits);
             warm_then_median(reps, || {
                 let start = Instant::now();
                 let tests = packets
@@ -366,6 +522,18 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays) -> (f
     (seconds, tests as f64 / n.max(1) as f64)
 }
 
+/// Each packet's share of `out`, cut before timing.
+fn split_per_packet<'a, T>(packets: &[RayPacket], out: &'a mut [T]) -> Vec<&'a mut [T]> {
+    let mut slots = Vec::with_capacity(packets.len());
+    let mut rest = out;
+    for p in packets {
+        let (slot, tail) = rest.split_at_mut(p.len());
+        slots.push(slot);
+        rest = tail;
+    }
+    slots
+}
+
 /// Runs `run` (which returns seconds and a count) once untimed, then `reps` (at least 1) more
 /// times: the median seconds of those, and the first run's count.
 fn warm_then_median(reps: usize, mut run: impl FnMut() -> (f64, u64)) -> (f64, u64) {
@@ -375,8 +543,9 @@ fn warm_then_median(reps: usize, mut run: impl FnMut() -> (f64, u64)) -> (f64, u
     (times[times.len() / 2], count)
 }
 
-/// Embree's rows for one scene: rtcIntersect1/4/8/16 in each context of `--embree-context`,
-/// per thread count, on the same rays as kdbeam's rows, each added to `rows` and printed.
+/// Embree's rows for one scene: rtcIntersect1/4/8/16 and rtcIntersect1M (rtcOccluded for
+/// shadow and AO rays) in each context of `--embree-context`, per thread count, on the same
+/// rays as kdbeam's rows, each added to `rows` and printed.
 #[cfg(feature = "embree")]
 fn embree_rows(
     args: &BenchArgs,
@@ -395,12 +564,19 @@ fn embree_rows(
     };
     let (_, first_pool) = pools.first().expect("at least one thread count");
     let scene = first_pool.install(|| EmbreeScene::with_options(mesh, &options))?;
+    let mut layouts = Vec::new();
     for width in QUERY_WIDTHS {
-        let layout = rays.embree_layout(width)?;
+        let layout = if width == 1 { "single" } else { "packets" };
+        layouts.push((width, layout, rays.embree_layout(width)?));
+    }
+    layouts.push((1, "stream", rays.embree_stream()));
+    for (width, layout, embree_rays) in &layouts {
         for (threads, pool) in pools {
             for &context in &args.embree_context {
-                let seconds = pool.install(|| embree_seconds(args.reps, &scene, &layout, context));
-                let mrays = layout.len() as f64 / seconds / 1e6;
+                let seconds = pool.install(|| {
+                    embree_seconds(args.reps, &scene, embree_rays, context, args.rays.any_hit())
+                });
+                let mrays = embree_rays.len() as f64 / seconds / 1e6;
                 let scalar = rows
                     .iter()
                     .find(|r| r.packet == 1 && r.threads == *threads && !r.is_embree())
@@ -409,7 +585,8 @@ fn embree_rows(
                     scene: name.to_string(),
                     rays: args.rays.name(),
                     isa: "embree".into(),
-                    packet: width,
+                    packet: *width,
+                    layout,
                     intersector: if robust { "embree_robust" } else { "embree" },
                     culling: "none".into(),
                     ci_over_ct: None,
@@ -428,27 +605,46 @@ fn embree_rows(
 }
 
 /// Median seconds of Embree tracing `rays` in `context` over `reps` timed runs after one
-/// untimed run. Each run traces a fresh copy of the untraced rays, copied before its timer
-/// starts.
+/// untimed run: closest hits, or occlusion when `any`. Each run traces a fresh copy of the
+/// untraced rays, copied before its timer starts.
 #[cfg(feature = "embree")]
 pub(crate) fn embree_seconds(
     reps: usize,
     scene: &kdbeam_cli::embree::EmbreeScene,
     rays: &kdbeam_cli::embree::EmbreeRays,
     context: kdbeam_cli::embree::Context,
+    any: bool,
 ) -> f64 {
     let mut work = rays.clone();
     warm_then_median(reps, || {
         work.clone_from(rays);
         let start = Instant::now();
-        scene.trace(&mut work, context);
+        if any {
+            scene.occlude(&mut work, context);
+        } else {
+            scene.trace(&mut work, context);
+        }
         (start.elapsed().as_secs_f64(), 0)
     })
     .0
 }
 
+/// The Embree call of a row: `rtcIntersect16`, `rtcOccluded1M` and so on.
+fn embree_call(row: &Row) -> String {
+    let query = if row.rays == RaySet::Shadow.name() || row.rays == RaySet::Ao.name() {
+        "rtcOccluded"
+    } else {
+        "rtcIntersect"
+    };
+    if row.layout == "stream" {
+        format!("{query}1M")
+    } else {
+        format!("{query}{}", row.packet)
+    }
+}
+
 /// Prints, per thread count of `rows` (one scene's), kdbeam's fastest row against Embree's
-/// fastest in each context measured.
+/// fastest in each context measured, of its single-ray, packet and stream calls.
 fn print_best(rows: &[Row], json: bool) {
     let matching = |rays: &str| {
         if rays == RaySet::Primary.name() {
@@ -483,29 +679,32 @@ fn print_best(rows: &[Row], json: bool) {
                 threads: t,
                 kdbeam_isa: kd.isa.clone(),
                 kdbeam_packet: kd.packet,
+                kdbeam_layout: kd.layout,
                 kdbeam_culling: kd.culling.clone(),
                 kdbeam_ci_over_ct: kd.ci_over_ct,
                 kdbeam_mrays_per_s: kd.mrays_per_s,
                 context,
                 context_matches_rays: matching(kd.rays) == context,
-                embree_packet: em.packet,
+                embree_call: embree_call(em),
                 embree_mrays_per_s: em.mrays_per_s,
                 ratio: kd.mrays_per_s / em.mrays_per_s,
             };
             print_json_or(&best, json, || {
                 format!(
-                    "best       {}, threads {}: kdbeam {} packet {} culling {} ci {} at {:.2} Mrays/s \
-                     = {:.2}x Embree's best {} (rtcIntersect{}, {:.2} Mrays/s){}",
+                    "best       {} {}, threads {}: kdbeam {} packet {} {} culling {} ci {} at {:.2} Mrays/s \
+                     = {:.2}x Embree's best {} ({}, {:.2} Mrays/s){}",
                     best.scene,
+                    kd.rays,
                     t,
                     best.kdbeam_isa,
                     best.kdbeam_packet,
+                    best.kdbeam_layout,
                     best.kdbeam_culling,
                     best.kdbeam_ci_over_ct.map_or("-".into(), |c| c.to_string()),
                     best.kdbeam_mrays_per_s,
                     best.ratio,
                     context,
-                    best.embree_packet,
+                    best.embree_call,
                     best.embree_mrays_per_s,
                     if best.context_matches_rays {
                         ": the context for these rays"
@@ -548,11 +747,12 @@ pub(crate) fn print_json_or(
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<16} {:<8} {:<8} {:>6} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>9}",
             r.scene,
             r.rays,
             r.isa,
             r.packet,
+            r.layout,
             r.culling,
             r.ci_over_ct.map_or("-".into(), |c| c.to_string()),
             r.context.unwrap_or("-"),

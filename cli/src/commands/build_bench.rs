@@ -7,7 +7,6 @@
 use std::time::Instant;
 
 use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Tracer};
-use kdbeam_cli::render::RaySet;
 use kdbeam_cli::{Error, Result};
 
 use super::bench::{measure, median_seconds, print_json_or, scene_names, RaysOf};
@@ -94,7 +93,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
     }
     for scene in scenes {
         let (name, mesh) = load_scene(scene)?;
-        let rays = RaysOf::of(RaySet::Primary, &mesh.bounds(), args.size);
+        let rays = RaysOf::primary(&mesh.bounds(), args.size);
         let packets = rays.kdbeam_layout(shape.ray_count())?;
         let row =
             |structure, setting, build: f64, rebuild: Option<f64>, sah_cost, frame: f64| Row {
@@ -139,7 +138,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                         Ok(start.elapsed().as_secs_f64())
                     })?;
                     let tracer = Tracer::new(&tree).with_packet(shape);
-                    let (frame, _) = measure(args.reps, &tracer, &packets);
+                    let (frame, _) = measure(args.reps, &tracer, &packets, false);
                     Ok((build, rebuild, tree.sah_cost(ci_over_ct), frame))
                 })?;
             print_row(
@@ -174,6 +173,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                         &scene,
                         &embree_rays,
                         Context::Coherent,
+                        false,
                     );
                     Ok((build, frame))
                 })?;

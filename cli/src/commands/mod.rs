@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use indicatif::{ProgressBar, ProgressStyle};
 use kdbeam::scene::{self, procedural};
 use kdbeam::trace::Intersector;
-use kdbeam::{BuildParams, KdTree, Mesh, PacketShape};
+use kdbeam::{Aabb, BuildParams, Camera, KdTree, Mesh, PacketShape, Vec3};
 use kdbeam_cli::scenes::shared_scene;
 use kdbeam_cli::{Error, Result};
 
@@ -34,6 +34,51 @@ pub(crate) struct TreeArgs {
     /// binning: lower builds faster, with slightly costlier trees.
     #[arg(long, default_value_t = BuildParams::default().exact_search_max)]
     exact_search_max: u32,
+}
+
+/// The camera options of `render` and `bench`: none gives the standard camera.
+#[derive(clap::Args, Clone, Default)]
+pub(crate) struct CameraArgs {
+    /// Camera position X,Y,Z (default: the standard camera's eye).
+    #[arg(long, value_parser = parse_point)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at, X,Y,Z (default: the scene box's centre).
+    #[arg(long, value_parser = parse_point)]
+    look_at: Option<Vec3>,
+    /// Field of view in degrees, horizontal and vertical (default: the standard camera's,
+    /// 2·atan(½) ≈ 53.13).
+    #[arg(long)]
+    fov: Option<f32>,
+}
+
+impl CameraArgs {
+    /// The standard camera of `bounds` when no option is given, otherwise the look-at camera
+    /// of the options, each missing one taken from the standard camera.
+    fn camera(&self, bounds: &Aabb, width: u32, height: u32) -> Result<Camera> {
+        let standard = Camera::standard(bounds, width, height);
+        if self.eye.is_none() && self.look_at.is_none() && self.fov.is_none() {
+            return Ok(standard);
+        }
+        let eye = self.eye.unwrap_or(standard.eye);
+        let target = self.look_at.unwrap_or(if bounds.is_empty() {
+            Vec3::Z
+        } else {
+            bounds.center()
+        });
+        let fov = self.fov.unwrap_or(2.0 * 0.5f32.atan().to_degrees());
+        Ok(Camera::look_at(eye, target, fov, width, height)?)
+    }
+}
+
+fn parse_point(s: &str) -> std::result::Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>().map_err(|e| format!("{c:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers X,Y,Z, got {s:?}")),
+    }
 }
 
 fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {

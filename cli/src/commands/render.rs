@@ -1,17 +1,31 @@
-//! `kdbeam render`: one frame of the standard camera to a PNG, with build and trace statistics.
+//! `kdbeam render`: one frame to a PNG — primary rays, then shadow rays to the point light and,
+//! with `--shade ao`, ambient-occlusion rays, as a renderer traces them — with build and trace
+//! statistics for each kind of ray.
 
 use std::path::PathBuf;
 use std::time::Duration;
 
-use kdbeam::trace::Culling;
-use kdbeam::{Camera, Isa, KdTree, Tracer};
-use kdbeam_cli::render;
+use kdbeam::rays::secondary::{light, SecondaryRays, Workload, DEFAULT_AO_RAYS};
+use kdbeam::trace::{Culling, PacketCounters};
+use kdbeam::{Isa, KdTree, Mesh, Tracer};
+use kdbeam_cli::render::{self, Frame, Light, SEED};
 use kdbeam_cli::Result;
 
 use super::{
     build_tree, delayed_bar, load_scene, packet_shape, parse_size, thread_pool, with_spinner,
-    TreeArgs,
+    CameraArgs, TreeArgs,
 };
+
+/// How the picture is lit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Shade {
+    /// A fixed key light and a sky fill: primary rays only.
+    Flat,
+    /// The point light of the shadow workload, with shadow rays (any hit).
+    Shadow,
+    /// Shadows, and ambient occlusion of the sky fill (`--ao-rays` rays per hit, any hit).
+    Ao,
+}
 
 #[derive(clap::Args)]
 pub(crate) struct RenderArgs {
@@ -24,6 +38,15 @@ pub(crate) struct RenderArgs {
     /// Image size, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
     size: (u32, u32),
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Lighting: flat (primary rays only), shadow (shadow rays to a point light) or ao
+    /// (shadows and ambient occlusion).
+    #[arg(long, value_enum, default_value = "shadow")]
+    shade: Shade,
+    /// Ambient-occlusion rays per primary hit (`--shade ao`).
+    #[arg(long, default_value_t = DEFAULT_AO_RAYS, value_parser = clap::value_parser!(u32).range(1..=64))]
+    ao_rays: u32,
     /// Also draw heat maps of ray–triangle tests per pixel next to the picture: without
     /// culling, then with the chosen culling, on one log scale.
     #[arg(long)]
@@ -69,7 +92,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         let sah_cost = tree.sah_cost(args.tree.ci_over_ct);
         println!("kd-tree    {stats}, SAH cost {sah_cost:.2}");
         let tracer = tracer(&tree, &args)?;
-        let camera = Camera::standard(&tree.bounds(), args.size.0, args.size.1);
+        let camera = args.camera.camera(&mesh.bounds(), args.size.0, args.size.1)?;
         let (bar, start) = delayed_bar(u64::from(camera.height), "tracing");
         let frame = render::trace_primary(&tracer, &camera, &|rows| {
             if start.elapsed() > Duration::from_secs(1) && bar.is_hidden() {
@@ -116,7 +139,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
                 c.single_ray_visits_percent(),
             );
         }
-        let mut image = frame.shade(&mesh);
+        let mut image = shade(&args, &tracer, &mesh, &frame)?;
         if args.heatmap {
             // Tests per pixel without culling, then with this tracer's culling, on one scale.
             let unculled = tracer.with_culling(Culling::NONE);
@@ -130,4 +153,75 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         println!("wrote      {}", args.out.display());
         Ok(())
     })
+}
+
+/// The picture of `frame` as `args.shade` asks: secondary rays traced from its primary hits
+/// (their throughput printed), then shaded.
+fn shade(
+    args: &RenderArgs,
+    tracer: &Tracer<'_>,
+    mesh: &Mesh,
+    frame: &Frame,
+) -> Result<render::Image> {
+    if args.shade == Shade::Flat {
+        return Ok(frame.shade(mesh));
+    }
+    let camera = &frame.camera;
+    let pixels = frame.hits.len();
+    let mut visible = vec![1.0f32; pixels];
+    let mut ambient = vec![1.0f32; pixels];
+    let mut workloads = vec![(Workload::Shadow, &mut visible)];
+    if args.shade == Shade::Ao {
+        let ao = Workload::AmbientOcclusion { rays: args.ao_rays };
+        workloads.push((ao, &mut ambient));
+    }
+    for (workload, share) in workloads {
+        let rays = SecondaryRays::new(workload, mesh, camera, &frame.hits, SEED)?;
+        let (occluded, seconds, counters) = render::trace_occlusion(tracer, &rays, camera);
+        let per_hit = 1.0 / workload.rays_per_hit() as f32;
+        for s in share.iter_mut() {
+            *s = 0.0;
+        }
+        let mut has_rays = vec![false; pixels];
+        for (&pixel, &o) in rays.pixels.iter().zip(&occluded) {
+            has_rays[pixel as usize] = true;
+            if !o {
+                share[pixel as usize] += per_hit;
+            }
+        }
+        // Pixels without rays (misses) stay lit.
+        for (s, l) in share.iter_mut().zip(&has_rays) {
+            if !l {
+                *s = 1.0;
+            }
+        }
+        print_secondary(workload, &rays, &occluded, seconds, &counters);
+    }
+    let position = light(&mesh.bounds());
+    Ok(frame.shade_lit(mesh, |pixel| {
+        Some(Light {
+            position,
+            visible: visible[pixel],
+            ambient: ambient[pixel],
+        })
+    }))
+}
+
+fn print_secondary(
+    workload: Workload,
+    rays: &SecondaryRays,
+    occluded: &[bool],
+    seconds: f64,
+    c: &PacketCounters,
+) {
+    let n = rays.len().max(1) as f64;
+    println!(
+        "{:<10} {} rays ({} per hit) in pixel-tile packets, any hit: {:.2} Mrays/s, {:.2} tests/ray, {:.1}% occluded",
+        workload.name(),
+        rays.len(),
+        workload.rays_per_hit(),
+        rays.len() as f64 / seconds.max(1e-12) / 1e6,
+        c.tests as f64 / n,
+        100.0 * occluded.iter().filter(|&&o| o).count() as f64 / n,
+    );
 }

@@ -1,5 +1,6 @@
-//! Closest-hit queries: kdbeam rays into Embree's ray layouts, rtcIntersect1/4/8/16 in a
-//! chosen intersect context, and Embree's hits back into kdbeam [`Hit`]s.
+//! Closest-hit and any-hit queries: kdbeam rays into Embree's ray layouts, rtcIntersect and
+//! rtcOccluded 1/4/8/16 and the stream calls rtcIntersect1M/rtcOccluded1M in a chosen intersect
+//! context, and Embree's answers back into kdbeam [`Hit`]s and occlusion flags.
 
 use embree::sys;
 use kdbeam::kernels::lanes::with_flush_to_zero;
@@ -64,8 +65,9 @@ impl Context {
     }
 }
 
-/// Rays converted into Embree's ray-and-hit layout for one query width: packets of `width`
-/// consecutive rays (the last one partly filled), each with its valid mask.
+/// Rays converted into Embree's ray-and-hit layout for one query: packets of `width` rays
+/// (consecutive rays, or given groups of at most `width`; partly filled packets have inactive
+/// lanes), each with its valid mask, or one array of `RTCRayHit` for the stream calls.
 ///
 /// Made once, so that a benchmark times only the queries: tracing writes the hits into the
 /// layout (and shortens each ray's `tfar`), so a repeated measurement traces a fresh copy
@@ -87,6 +89,7 @@ enum Layout {
     W4(Packets<sys::RTCRayHit4>),
     W8(Packets<sys::RTCRayHit8>),
     W16(Packets<sys::RTCRayHit16>),
+    Stream(Stream),
 }
 
 /// Packets of one width with their valid masks.
@@ -94,6 +97,17 @@ enum Layout {
 struct Packets<P: RayHitPacket> {
     packets: Vec<P>,
     valid: Vec<P::Valid>,
+    /// The rays in each packet (its first lanes; the others are inactive).
+    counts: Vec<u8>,
+}
+
+/// Rays for rtcIntersect1M/rtcOccluded1M: one `RTCRayHit` per ray, in the order of the rays.
+#[derive(Clone)]
+struct Stream {
+    rays: Vec<sys::RTCRayHit>,
+    /// Rays that are traced; the others are disabled (`tnear = +inf > tfar = −inf`, which
+    /// Embree skips) and read back as misses, never as occluded.
+    active: Vec<bool>,
 }
 
 impl EmbreeRays {
@@ -102,11 +116,29 @@ impl EmbreeRays {
     /// # Errors
     /// [`Error::InvalidParameter`] when `width` is not 1, 4, 8 or 16.
     pub fn new(rays: &[Ray], width: usize) -> Result<EmbreeRays> {
+        let groups: Vec<&[Ray]> = rays.chunks(width.max(1)).collect();
+        EmbreeRays::from_groups(&groups, width)
+    }
+
+    /// One packet of `width` lanes per group of `groups` (kdbeam's packets of the same rays,
+    /// say), its rays in the first lanes and the rest inactive; the rays read back in the
+    /// order of the groups.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `width` is not 1, 4, 8 or 16, or a group holds more
+    /// than `width` rays.
+    pub fn from_groups(groups: &[&[Ray]], width: usize) -> Result<EmbreeRays> {
+        if let Some(g) = groups.iter().find(|g| g.len() > width) {
+            return Err(Error::InvalidParameter {
+                name: "embree packet",
+                message: format!("a group of {} rays for rtcIntersect{width}", g.len()),
+            });
+        }
         let layout = match width {
-            1 => Layout::W1(Packets::new(rays)),
-            4 => Layout::W4(Packets::new(rays)),
-            8 => Layout::W8(Packets::new(rays)),
-            16 => Layout::W16(Packets::new(rays)),
+            1 => Layout::W1(Packets::new(groups)),
+            4 => Layout::W4(Packets::new(groups)),
+            8 => Layout::W8(Packets::new(groups)),
+            16 => Layout::W16(Packets::new(groups)),
             _ => {
                 return Err(Error::InvalidParameter {
                     name: "embree width",
@@ -115,9 +147,32 @@ impl EmbreeRays {
             }
         };
         Ok(EmbreeRays {
-            len: rays.len(),
+            len: groups.iter().map(|g| g.len()).sum(),
             layout,
         })
+    }
+
+    /// `rays` for the stream calls rtcIntersect1M and rtcOccluded1M, in their order.
+    pub fn stream(rays: &[Ray]) -> EmbreeRays {
+        let mut out = Stream {
+            rays: Vec::with_capacity(rays.len()),
+            active: Vec::with_capacity(rays.len()),
+        };
+        for ray in rays {
+            let mut r = <sys::RTCRayHit as RayHitPacket>::empty();
+            let active = is_active(ray);
+            if active {
+                r.set_ray(0, ray);
+            } else {
+                (r.ray.tnear, r.ray.tfar) = (f32::INFINITY, f32::NEG_INFINITY);
+            }
+            out.rays.push(r);
+            out.active.push(active);
+        }
+        EmbreeRays {
+            len: rays.len(),
+            layout: Layout::Stream(out),
+        }
     }
 
     /// How many rays.
@@ -140,23 +195,56 @@ impl EmbreeRays {
     pub fn hits(&self, hits: &mut [Hit]) -> Result<()> {
         check_outputs(hits.len(), self.len)?;
         match &self.layout {
-            Layout::W1(p) => p.hits(hits),
-            Layout::W4(p) => p.hits(hits),
-            Layout::W8(p) => p.hits(hits),
-            Layout::W16(p) => p.hits(hits),
+            Layout::W1(p) => p.read(hits, Hit::NONE, P1::hit),
+            Layout::W4(p) => p.read(hits, Hit::NONE, P4::hit),
+            Layout::W8(p) => p.read(hits, Hit::NONE, P8::hit),
+            Layout::W16(p) => p.read(hits, Hit::NONE, P16::hit),
+            Layout::Stream(s) => {
+                for ((h, r), &active) in hits.iter_mut().zip(&s.rays).zip(&s.active) {
+                    *h = if active { r.hit(0) } else { Hit::NONE };
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether each ray was found occluded by [`EmbreeScene::occlude`], in the order of the
+    /// rays (`false` for an inactive lane, and for every ray before tracing): Embree marks an
+    /// occluded ray by setting its `tfar` to −inf.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `occluded.len()` is not the number of rays.
+    pub fn occluded(&self, occluded: &mut [bool]) -> Result<()> {
+        check_outputs(occluded.len(), self.len)?;
+        match &self.layout {
+            Layout::W1(p) => p.read(occluded, false, P1::occluded),
+            Layout::W4(p) => p.read(occluded, false, P4::occluded),
+            Layout::W8(p) => p.read(occluded, false, P8::occluded),
+            Layout::W16(p) => p.read(occluded, false, P16::occluded),
+            Layout::Stream(s) => {
+                for ((o, r), &active) in occluded.iter_mut().zip(&s.rays).zip(&s.active) {
+                    *o = active && r.occluded(0);
+                }
+            }
         }
         Ok(())
     }
 }
 
+type P1 = sys::RTCRayHit;
+type P4 = sys::RTCRayHit4;
+type P8 = sys::RTCRayHit8;
+type P16 = sys::RTCRayHit16;
+
 impl<P: RayHitPacket> Packets<P> {
-    fn new(rays: &[Ray]) -> Self {
-        let mut packets = Vec::with_capacity(rays.len().div_ceil(P::WIDTH));
-        let mut valid = Vec::with_capacity(packets.capacity());
-        for chunk in rays.chunks(P::WIDTH) {
+    fn new(groups: &[&[Ray]]) -> Self {
+        let mut packets = Vec::with_capacity(groups.len());
+        let mut valid = Vec::with_capacity(groups.len());
+        let mut counts = Vec::with_capacity(groups.len());
+        for group in groups {
             let mut packet = P::empty();
             let mut mask = P::Valid::default();
-            for (lane, ray) in chunk.iter().enumerate() {
+            for (lane, ray) in group.iter().enumerate() {
                 if is_active(ray) {
                     packet.set_ray(lane, ray);
                     mask.as_mut()[lane] = -1;
@@ -164,30 +252,33 @@ impl<P: RayHitPacket> Packets<P> {
             }
             packets.push(packet);
             valid.push(mask);
+            counts.push(group.len() as u8);
         }
-        Packets { packets, valid }
+        Packets {
+            packets,
+            valid,
+            counts,
+        }
     }
 
-    fn hits(&self, hits: &mut [Hit]) {
-        for ((packet, valid), hits) in self
-            .packets
-            .iter()
-            .zip(&self.valid)
-            .zip(hits.chunks_mut(P::WIDTH))
-        {
-            for (lane, hit) in hits.iter_mut().enumerate() {
-                *hit = if valid.as_ref()[lane] == 0 {
-                    Hit::NONE
+    /// `answer` of every ray in order, `none` for an inactive lane.
+    fn read<T: Copy>(&self, out: &mut [T], none: T, answer: fn(&P, usize) -> T) {
+        let mut out = out.iter_mut();
+        for ((packet, valid), &count) in self.packets.iter().zip(&self.valid).zip(&self.counts) {
+            for (lane, o) in out.by_ref().take(count as usize).enumerate() {
+                *o = if valid.as_ref()[lane] == 0 {
+                    none
                 } else {
-                    packet.hit(lane)
+                    answer(packet, lane)
                 };
             }
         }
     }
 
-    /// Traces every packet, in parallel over chunks of [`CHUNK`] rays on the current rayon
-    /// pool, each chunk with flush-to-zero and denormals-are-zero set, as Embree expects.
-    fn trace(&mut self, scene: &EmbreeScene, context: Context) {
+    /// Traces every packet (rtcOccluded when `any`, rtcIntersect otherwise), in parallel over
+    /// chunks of [`CHUNK`] rays on the current rayon pool, each chunk with flush-to-zero and
+    /// denormals-are-zero set, as Embree expects.
+    fn trace(&mut self, scene: &EmbreeScene, context: Context, any: bool) {
         let per_chunk = CHUNK / P::WIDTH;
         self.packets
             .par_chunks_mut(per_chunk)
@@ -199,24 +290,69 @@ impl<P: RayHitPacket> Packets<P> {
                         // SAFETY: the scene is committed and alive for `&scene`; `context`,
                         // `packet` and `valid` are initialised, and aligned to the packet
                         // width as Embree requires.
-                        unsafe { P::intersect(valid, scene.handle(), &mut context, packet) };
+                        unsafe {
+                            if any {
+                                P::occlude(valid, scene.handle(), &mut context, packet)
+                            } else {
+                                P::intersect(valid, scene.handle(), &mut context, packet)
+                            }
+                        };
                     }
                 })
             });
     }
 }
 
+impl Stream {
+    /// rtcOccluded1M (when `any`) or rtcIntersect1M on chunks of [`CHUNK`] rays, in parallel
+    /// on the current rayon pool, with flush-to-zero and denormals-are-zero set.
+    fn trace(&mut self, scene: &EmbreeScene, context: Context, any: bool) {
+        let stride = std::mem::size_of::<sys::RTCRayHit>();
+        self.rays.par_chunks_mut(CHUNK).for_each(|chunk| {
+            with_flush_to_zero(|| {
+                let mut context = context.context();
+                let m = chunk.len() as u32;
+                // SAFETY: the scene is committed and alive for `&scene`; `chunk` holds `m`
+                // initialised, 16-byte aligned `RTCRayHit`s `stride` bytes apart, and an
+                // `RTCRayHit` starts with its `RTCRay`, so the same array serves
+                // rtcOccluded1M, which reads and writes only the rays.
+                unsafe {
+                    if any {
+                        let rays = chunk.as_mut_ptr().cast::<sys::RTCRay>();
+                        sys::rtcOccluded1M(scene.handle(), &mut context, rays, m, stride);
+                    } else {
+                        let rays = chunk.as_mut_ptr();
+                        sys::rtcIntersect1M(scene.handle(), &mut context, rays, m, stride);
+                    }
+                }
+            })
+        });
+    }
+}
+
 impl EmbreeScene {
-    /// Traces `rays` with rtcIntersect`width` (the width they were made for) in `context`,
-    /// writing the closest hits into them ([`EmbreeRays::hits`] reads them). Tracing rays a
-    /// second time starts from the hits of the first (each ray's `tfar` is its hit): trace a
-    /// fresh copy instead.
+    /// Traces `rays` with rtcIntersect`width` (the width they were made for; rtcIntersect1M
+    /// for a stream) in `context`, writing the closest hits into them ([`EmbreeRays::hits`]
+    /// reads them). Tracing rays a second time starts from the hits of the first (each ray's
+    /// `tfar` is its hit): trace a fresh copy instead.
     pub fn trace(&self, rays: &mut EmbreeRays, context: Context) {
+        self.query(rays, context, false);
+    }
+
+    /// Asks whether each ray of `rays` hits anything, with rtcOccluded`width` (rtcOccluded1M
+    /// for a stream) in `context` ([`EmbreeRays::occluded`] reads the answers). As with
+    /// [`EmbreeScene::trace`], trace a fresh copy to trace again.
+    pub fn occlude(&self, rays: &mut EmbreeRays, context: Context) {
+        self.query(rays, context, true);
+    }
+
+    fn query(&self, rays: &mut EmbreeRays, context: Context, any: bool) {
         match &mut rays.layout {
-            Layout::W1(p) => p.trace(self, context),
-            Layout::W4(p) => p.trace(self, context),
-            Layout::W8(p) => p.trace(self, context),
-            Layout::W16(p) => p.trace(self, context),
+            Layout::W1(p) => p.trace(self, context, any),
+            Layout::W4(p) => p.trace(self, context, any),
+            Layout::W8(p) => p.trace(self, context, any),
+            Layout::W16(p) => p.trace(self, context, any),
+            Layout::Stream(s) => s.trace(self, context, any),
         }
     }
 
@@ -271,11 +407,23 @@ trait RayHitPacket: Copy + Send + Sync {
     fn set_ray(&mut self, lane: usize, ray: &Ray);
     /// The hit of a traced `lane`.
     fn hit(&self, lane: usize) -> Hit;
+    /// Was `lane` found occluded (its `tfar` set to −inf)?
+    fn occluded(&self, lane: usize) -> bool;
     /// rtcIntersect`WIDTH`.
     ///
     /// # Safety
     /// `scene` must be a live, committed scene.
     unsafe fn intersect(
+        valid: &Self::Valid,
+        scene: sys::RTCScene,
+        context: &mut sys::RTCIntersectContext,
+        packet: &mut Self,
+    );
+    /// rtcOccluded`WIDTH`, on the packet's rays.
+    ///
+    /// # Safety
+    /// `scene` must be a live, committed scene.
+    unsafe fn occlude(
         valid: &Self::Valid,
         scene: sys::RTCScene,
         context: &mut sys::RTCIntersectContext,
@@ -368,10 +516,29 @@ impl RayHitPacket for sys::RTCRayHit {
             unsafe { sys::rtcIntersect1(scene, context, packet) }
         }
     }
+
+    #[inline]
+    fn occluded(&self, _lane: usize) -> bool {
+        self.ray.tfar == f32::NEG_INFINITY
+    }
+
+    #[inline]
+    unsafe fn occlude(
+        valid: &Valid1,
+        scene: sys::RTCScene,
+        context: &mut sys::RTCIntersectContext,
+        packet: &mut Self,
+    ) {
+        if valid.0[0] != 0 {
+            // SAFETY: the caller guarantees the scene; `packet.ray` is a live RTCRay, aligned
+            // as its RTCRayHit.
+            unsafe { sys::rtcOccluded1(scene, context, &mut packet.ray) }
+        }
+    }
 }
 
 macro_rules! ray_hit_packet {
-    ($packet:ident, $ray:ident, $hit:ident, $valid:ident, $align:literal, $n:literal, $f:ident) => {
+    ($packet:ident, $ray:ident, $hit:ident, $valid:ident, $align:literal, $n:literal, $f:ident, $o:ident) => {
         #[doc = concat!("A valid mask for rtcIntersect", stringify!($n), ", aligned to the packet as Embree requires (an unaligned mask crashes).")]
         #[repr(C, align($align))]
         #[derive(Clone, Copy, Default)]
@@ -463,12 +630,47 @@ macro_rules! ray_hit_packet {
                 // (Embree's own aligned SoA type) are live and aligned to the width.
                 unsafe { sys::$f(valid.0.as_ptr(), scene, context, packet) }
             }
+
+            #[inline]
+            fn occluded(&self, lane: usize) -> bool {
+                self.ray.tfar[lane] == f32::NEG_INFINITY
+            }
+
+            #[inline]
+            unsafe fn occlude(
+                valid: &$valid,
+                scene: sys::RTCScene,
+                context: &mut sys::RTCIntersectContext,
+                packet: &mut Self,
+            ) {
+                // SAFETY: as for the intersection; `packet.ray` is the packet's first field,
+                // aligned as the packet.
+                unsafe { sys::$o(valid.0.as_ptr(), scene, context, &mut packet.ray) }
+            }
         }
     };
 }
 
-ray_hit_packet!(RTCRayHit4, RTCRay4, RTCHit4, Valid4, 16, 4, rtcIntersect4);
-ray_hit_packet!(RTCRayHit8, RTCRay8, RTCHit8, Valid8, 32, 8, rtcIntersect8);
+ray_hit_packet!(
+    RTCRayHit4,
+    RTCRay4,
+    RTCHit4,
+    Valid4,
+    16,
+    4,
+    rtcIntersect4,
+    rtcOccluded4
+);
+ray_hit_packet!(
+    RTCRayHit8,
+    RTCRay8,
+    RTCHit8,
+    Valid8,
+    32,
+    8,
+    rtcIntersect8,
+    rtcOccluded8
+);
 ray_hit_packet!(
     RTCRayHit16,
     RTCRay16,
@@ -476,5 +678,6 @@ ray_hit_packet!(
     Valid16,
     64,
     16,
-    rtcIntersect16
+    rtcIntersect16,
+    rtcOccluded16
 );

@@ -6,13 +6,14 @@ mod shade;
 
 use std::time::Instant;
 
+use kdbeam::rays::secondary::SecondaryRays;
 use kdbeam::trace::{PacketCounters, Tracer};
 use kdbeam::{Camera, Hit, HitPacket, Mesh, RayPacket};
 use rayon::prelude::*;
 
 pub use image::{heat_color, Image};
-pub use ray_set::{ray_set, RaySet};
-pub use shade::shade;
+pub use ray_set::{RaySet, Rays, SEED};
+pub use shade::{shade, shade_lit, Light};
 
 /// The primary hits of one frame and what they cost.
 #[derive(Clone, Debug)]
@@ -45,16 +46,23 @@ impl Frame {
         self.counters.tests as f64 / self.rays().max(1) as f64
     }
 
-    /// Shades the frame.
+    /// Shades the frame under the fixed key light.
     pub fn shade(&self, mesh: &Mesh) -> Image {
+        self.shade_lit(mesh, |_| None)
+    }
+
+    /// Shades the frame, pixel `y · width + x` lit as `light` says ([`shade_lit`]).
+    pub fn shade_lit(&self, mesh: &Mesh, light: impl Fn(usize) -> Option<Light>) -> Image {
         let mut img = Image::new(self.camera.width, self.camera.height);
         for y in 0..self.camera.height {
             for x in 0..self.camera.width {
-                let hit = &self.hits[(y * self.camera.width + x) as usize];
+                let pixel = (y * self.camera.width + x) as usize;
+                let hit = &self.hits[pixel];
                 // Row y = 0 looks down (v = −1): draw it at the bottom, and mirror x, so the
                 // picture is upright as seen from the eye.
                 let (px, py) = (self.camera.width - 1 - x, self.camera.height - 1 - y);
-                img.set_linear(px, py, shade(mesh, &self.camera.ray(x, y), hit));
+                let colour = shade_lit(mesh, &self.camera.ray(x, y), hit, light(pixel));
+                img.set_linear(px, py, colour);
             }
         }
         img
@@ -105,6 +113,37 @@ pub fn trace_primary(
         counters,
         seconds,
     }
+}
+
+/// Whether each of `rays` hits anything, traced by `tracer` in the packets per pixel tile and
+/// sample of its packet shape ([`SecondaryRays::tile_packets`]) on all threads of the current
+/// rayon pool: the answers in the order of the rays, the seconds spent tracing and the work.
+pub fn trace_occlusion(
+    tracer: &Tracer<'_>,
+    rays: &SecondaryRays,
+    camera: &Camera,
+) -> (Vec<bool>, f64, PacketCounters) {
+    let start = Instant::now();
+    let tiles = rays.tile_packets(camera, tracer.packet());
+    let per_packet: Vec<(u64, PacketCounters)> = tiles
+        .packets
+        .par_iter()
+        .map(|p| {
+            let mut c = PacketCounters::default();
+            (tracer.occluded_packet_counted(p, p.full_mask(), &mut c), c)
+        })
+        .collect();
+    let seconds = start.elapsed().as_secs_f64();
+    let mut occluded = vec![false; rays.len()];
+    let mut counters = PacketCounters::default();
+    let mut lanes = tiles.rays.iter();
+    for ((bits, c), p) in per_packet.iter().zip(&tiles.packets) {
+        counters.add(c);
+        for (j, &i) in lanes.by_ref().take(p.len()).enumerate() {
+            occluded[i as usize] = bits >> j & 1 != 0;
+        }
+    }
+    (occluded, seconds, counters)
 }
 
 /// Ray–triangle tests per pixel, as a heat map on a log scale from 1 to `max` (the frame's own

@@ -9,12 +9,13 @@
 use std::time::Instant;
 
 use kdbeam::kernels::intersect::oracle::OracleRay;
+use kdbeam::rays::secondary::SecondaryRays;
 use kdbeam::trace::reference::{kd_oracle, ReferenceHit};
 use kdbeam::trace::{Culling, Frustum, Planes, Tracer};
-use kdbeam::{Camera, Error, Hit, KdTree, Mesh, Ray, Result};
+use kdbeam::{Camera, Error, Hit, HitPacket, KdTree, Mesh, Ray, Result};
 use rayon::prelude::*;
 
-use crate::render::{self, RaySet};
+use crate::render::{self, RaySet, Rays};
 
 /// Relative part of the edge-tie tolerance on `t`: f32 carries 24 bits (6e-8 relative) and a
 /// ray–triangle test's few products lose up to ~3 orders of magnitude on grazing rays (the
@@ -190,8 +191,11 @@ pub struct Workload {
     pub set: RaySet,
     /// The standard camera of the scene at the requested size.
     pub camera: Camera,
-    /// The rays, in the order the hits are returned (row by row for primary rays).
+    /// The rays, in the order the hits are returned (row by row for primary rays, pixel by
+    /// pixel for secondary ones).
     pub rays: Vec<Ray>,
+    /// The secondary rays with their pixels, for the secondary sets.
+    secondary: Option<SecondaryRays>,
 }
 
 /// One tracer timed and scored on a [`Workload`].
@@ -204,31 +208,74 @@ pub struct Measurement {
 }
 
 impl Workload {
-    /// The rays of `set` for a scene bounded by `tree.bounds()`, as [`render::ray_set`] makes
-    /// them (`width · height` rays).
-    pub fn new(set: RaySet, tree: &KdTree, width: u32, height: u32) -> Workload {
-        let bounds = tree.bounds();
-        Workload {
+    /// The rays of `set` for `mesh` and its tree, from the standard camera at
+    /// `width × height` ([`Rays::new`]; `width · height` random rays, and `ao_rays` rays per
+    /// hit for ambient occlusion).
+    ///
+    /// # Errors
+    /// None for a tree of `mesh` (see [`Rays::new`]).
+    pub fn new(
+        set: RaySet,
+        mesh: &Mesh,
+        tree: &KdTree,
+        width: u32,
+        height: u32,
+        ao_rays: u32,
+    ) -> Result<Workload> {
+        let camera = Camera::standard(&tree.bounds(), width, height);
+        let rays = Rays::new(set, mesh, &Tracer::new(tree), &camera, ao_rays)?;
+        Ok(Workload {
             set,
-            camera: Camera::standard(&bounds, width, height),
-            rays: render::ray_set(set, &bounds, width, height),
-        }
+            camera,
+            rays: rays.rays,
+            secondary: rays.secondary,
+        })
     }
 
-    /// The hits of `tracer` on these rays, and the seconds spent tracing: primary rays in
-    /// pixel tiles of the tracer's packet shape ([`render::trace_primary`]), random rays as a
-    /// stream ([`Tracer::intersect_stream`]). Runs on the current rayon pool: install a
-    /// one-thread pool for single-thread figures.
+    /// The closest hits of `tracer` on these rays, and the seconds spent tracing: primary rays
+    /// in pixel tiles of the tracer's packet shape ([`render::trace_primary`]), secondary rays
+    /// in the packets per pixel tile and sample a renderer makes
+    /// ([`SecondaryRays::tile_packets`]), random rays as a stream
+    /// ([`Tracer::intersect_stream`]). Shadow and AO rays are traced for their closest hit
+    /// too, so that their `t` can be scored: their hit/miss is the occlusion answer. Runs on
+    /// the current rayon pool: install a one-thread pool for single-thread figures.
     ///
     /// # Errors
     /// Those of [`Tracer::intersect_stream`] (none for a well-formed workload).
     pub fn trace(&self, tracer: &Tracer<'_>) -> Result<(Vec<Hit>, f64)> {
+        if let Some(secondary) = &self.secondary {
+            let tiles = secondary.tile_packets(&self.camera, tracer.packet());
+            let mut sorted = vec![Hit::NONE; self.rays.len()];
+            let start = Instant::now();
+            let mut slots = Vec::with_capacity(tiles.packets.len());
+            let mut rest = &mut sorted[..];
+            for p in &tiles.packets {
+                let (slot, tail) = rest.split_at_mut(p.len());
+                slots.push(slot);
+                rest = tail;
+            }
+            tiles.packets.par_iter().zip(slots).for_each_init(
+                HitPacket::default,
+                |hp, (p, slot)| {
+                    tracer.intersect_packet(p, p.full_mask(), hp);
+                    for (j, h) in slot.iter_mut().enumerate() {
+                        *h = hp.hit(j);
+                    }
+                },
+            );
+            let seconds = start.elapsed().as_secs_f64();
+            let mut hits = vec![Hit::NONE; self.rays.len()];
+            for (&i, h) in tiles.rays.iter().zip(&sorted) {
+                hits[i as usize] = *h;
+            }
+            return Ok((hits, seconds));
+        }
         match self.set {
             RaySet::Primary => {
                 let frame = render::trace_primary(tracer, &self.camera, &|_| {});
                 Ok((frame.hits, frame.seconds))
             }
-            RaySet::Random => {
+            _ => {
                 let mut hits = vec![Hit::NONE; self.rays.len()];
                 let start = Instant::now();
                 tracer.intersect_stream(&self.rays, &mut hits)?;
