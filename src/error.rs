@@ -66,6 +66,40 @@ pub enum Error {
     /// An ISA was forced that this CPU does not run.
     #[error("the {0} instruction set is not available on this CPU")]
     IsaUnavailable(Isa),
+    /// A scene was given a geometry id it never issued, or one that was removed.
+    #[error("geometry {0} is not in the scene (never added, or removed)")]
+    UnknownGeometry(u32),
+    /// A scene was given an instance id it never issued, or one that was removed.
+    #[error("instance {0} is not in the scene (never added, or removed)")]
+    UnknownInstance(u32),
+    /// A transform with a NaN or infinite entry, or one that cannot be inverted.
+    #[error("invalid transform: {0}")]
+    InvalidTransform(String),
+    /// New positions for a mesh whose vertex count they do not match (an update keeps the
+    /// topology).
+    #[error("geometry {geometry} has {expected} vertices, the update gives {given}")]
+    VertexCountChanged {
+        /// The geometry.
+        geometry: u32,
+        /// Its vertex count.
+        expected: usize,
+        /// The update's.
+        given: usize,
+    },
+    /// A geometry that instances still use cannot be removed.
+    #[error("geometry {geometry} is used by {instances} instance(s); remove them first")]
+    GeometryInUse {
+        /// The geometry.
+        geometry: u32,
+        /// How many instances use it.
+        instances: usize,
+    },
+    /// A scene has issued every id of 32 bits but the invalid one (ids are never reused).
+    #[error("the scene has used up its {0} ids")]
+    IdsExhausted(&'static str),
+    /// A scene was traced before its first `commit()`.
+    #[error("the scene was never committed")]
+    NotCommitted,
     /// `builtin:NAME` names no built-in scene.
     #[error("unknown built-in scene {0:?} (try builtin:default, builtin:icosphere, builtin:grid, builtin:soup, builtin:hair, builtin:terrain)")]
     UnknownScene(String),

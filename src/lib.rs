@@ -29,7 +29,8 @@
 //! # Modules
 //!
 //! - [`scene`]: [`Mesh`] (validated on construction), OBJ loading ([`scene::load_obj`], also
-//!   `.obj.gz`), procedural scenes and the synthetic Kensler–Shirley data.
+//!   `.obj.gz`), procedural scenes and the synthetic Kensler–Shirley data; [`Scene`]
+//!   ([`scene::world`]): many meshes and instances, committed and traced together.
 //! - [`kdtree`]: the SAH build ([`BuildParams`], [`KdTreeBuilder`] for rebuilds in place), the
 //!   node layout and [`BuildStats`].
 //! - [`trace`]: [`Tracer`], [`Intersector`], [`Culling`], streams and the f64 references.
@@ -66,6 +67,7 @@ pub use kdbeam_kernels as kernels;
 pub use kdbeam_kernels::{Aabb, Hit, HitPacket, Isa, PacketShape, Ray, RayPacket, Triangle};
 pub use kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
 pub use rays::Camera;
+pub use scene::world::{GeometryId, InstanceId, Scene, SceneHit};
 pub use scene::Mesh;
 pub use trace::{Culling, Intersector, Tracer};
 

@@ -4,6 +4,7 @@
 //! ISA and culling.
 
 mod culling;
+pub mod filtered;
 pub mod leaf;
 mod packet;
 pub mod reference;

@@ -1,0 +1,195 @@
+//! Scenes of many meshes and instances, for renderers whose worlds move: [`Scene`].
+//!
+//! A scene holds meshes ([`GeometryId`]) and instances of them under affine transforms
+//! ([`InstanceId`]). [`Scene::commit`] builds a kd-tree per changed mesh (in parallel across
+//! meshes with the `parallel` feature) and a BVH over the instances' world boxes (see
+//! `top_level.rs` for why a BVH); queries trace the scene as of the last commit. A ray enters
+//! an instance as the same ray carried to the mesh's space by the inverse transform, so `t` is
+//! the world ray's parameter.
+//!
+//! This room sits above [`crate::trace`]: it builds on [`crate::KdTree`] and
+//! [`crate::trace::filtered`], and nothing below imports it.
+//!
+//! ```
+//! use kdbeam::scene::world::{InstanceId, Query, Scene};
+//! use kdbeam::{Mesh, Ray, Vec3};
+//! use glam::Affine3A;
+//!
+//! let quad = Mesh::from_indexed(
+//!     &[[-1.0, -1.0, 0.0], [1.0, -1.0, 0.0], [1.0, 1.0, 0.0], [-1.0, 1.0, 0.0]],
+//!     &[0, 1, 2, 0, 2, 3],
+//! )?;
+//! let mut scene = Scene::new();
+//! let quad = scene.add_prototype(quad)?;
+//! let near = scene.add_instance(quad, Affine3A::from_translation(Vec3::new(0.0, 0.0, 5.0)))?;
+//! let far = scene.add_instance(quad, Affine3A::from_translation(Vec3::new(0.0, 0.0, 9.0)))?;
+//! scene.commit()?;
+//!
+//! let ray = Ray::new(Vec3::new(0.5, 0.25, 0.0), Vec3::Z);
+//! let hit = scene.intersect(&ray);
+//! assert_eq!((hit.t, hit.geometry, hit.instance), (5.0, quad, near));
+//! assert_eq!(scene.normal(&hit), Some(Vec3::Z));
+//!
+//! // Reject the near quad's hits: the far one is the closest accepted hit.
+//! let skip_near = |h: &kdbeam::scene::world::SceneHit| h.instance != near;
+//! let hit = scene.intersect_with(&ray, &Query { filter: Some(&skip_near), ..Query::default() });
+//! assert_eq!((hit.t, hit.instance), (9.0, far));
+//!
+//! scene.set_transform(near, Affine3A::from_translation(Vec3::new(0.0, 0.0, 20.0)))?;
+//! assert_eq!(scene.intersect(&ray).instance, near); // not committed yet
+//! scene.commit()?;
+//! assert_eq!(scene.intersect(&ray).instance, far);
+//! # let _: InstanceId = far;
+//! # Ok::<(), kdbeam::Error>(())
+//! ```
+
+mod commit;
+mod edit;
+mod hit;
+mod ids;
+mod top_level;
+mod trace;
+mod transform;
+
+use std::sync::Arc;
+
+use glam::Affine3A;
+
+use crate::kdtree::{BuildParams, KdTree};
+use crate::scene::Mesh;
+use crate::trace::Intersector;
+
+pub use hit::{HitFilter, Query, SceneHit};
+pub use ids::{GeometryId, InstanceId};
+
+use commit::Committed;
+use ids::Slots;
+
+/// Meshes and instances of them, traced through a kd-tree per mesh and a BVH over instances.
+///
+/// Changes (`add_*`, `update_positions`, `set_transform`, `remove_*`) take `&mut self` and are
+/// seen by queries only after [`Scene::commit`]; queries take `&self`, so a committed scene
+/// can be traced from many threads at once (`Scene` is `Sync`), and no change can overlap a
+/// query. A scene never committed traces as empty: every ray misses, and the stream queries
+/// return [`crate::Error::NotCommitted`].
+///
+/// Ids are never reused: after `remove_*`, the old id names nothing and every call given it
+/// fails with [`crate::Error::UnknownGeometry`] or [`crate::Error::UnknownInstance`].
+#[derive(Debug)]
+pub struct Scene {
+    geometries: Slots<Geometry>,
+    instances: Slots<Instance>,
+    params: BuildParams,
+    intersector: Intersector,
+    /// Something changed since the last commit.
+    changed: bool,
+    committed: Option<Committed>,
+}
+
+/// A mesh, its tree once built, and where it is traced.
+#[derive(Debug)]
+struct Geometry {
+    mesh: Arc<Mesh>,
+    /// `None` until the next commit builds it (new or updated mesh).
+    tree: Option<Arc<KdTree>>,
+    /// Traced in world space as it is, besides its instances.
+    as_is: bool,
+    /// How many instances use it.
+    instances: usize,
+}
+
+/// A placement of a geometry.
+#[derive(Clone, Copy, Debug)]
+struct Instance {
+    geometry: u32,
+    to_world: Affine3A,
+    to_object: Affine3A,
+    mask: u32,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Scene::new()
+    }
+}
+
+impl Scene {
+    /// An empty scene with the default build parameters and intersector.
+    #[must_use]
+    pub fn new() -> Self {
+        Scene {
+            geometries: Slots::new("geometry"),
+            instances: Slots::new("instance"),
+            params: BuildParams::default(),
+            intersector: Intersector::default(),
+            changed: true,
+            committed: None,
+        }
+    }
+
+    /// The ray–triangle test of every query.
+    #[must_use]
+    pub fn intersector(&self) -> Intersector {
+        self.intersector
+    }
+
+    /// Chooses the ray–triangle test (seen at once: it needs no rebuild).
+    pub fn set_intersector(&mut self, intersector: Intersector) {
+        self.intersector = intersector;
+    }
+
+    /// The kd-tree build parameters.
+    #[must_use]
+    pub fn build_params(&self) -> &BuildParams {
+        &self.params
+    }
+
+    /// Sets the kd-tree build parameters; the next commit rebuilds every mesh's tree with them.
+    ///
+    /// # Errors
+    /// As [`BuildParams::validate`]; the scene is unchanged then.
+    pub fn set_build_params(&mut self, params: BuildParams) -> crate::Result<()> {
+        params.validate()?;
+        self.params = params;
+        for (_, g) in self.geometries.iter_mut() {
+            g.tree = None;
+        }
+        self.changed = true;
+        Ok(())
+    }
+
+    /// How many meshes the scene holds (as edited, committed or not).
+    #[must_use]
+    pub fn geometry_count(&self) -> usize {
+        self.geometries.len()
+    }
+
+    /// How many instances the scene holds (as edited, committed or not).
+    #[must_use]
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Has the scene been committed at least once?
+    #[must_use]
+    pub fn is_committed(&self) -> bool {
+        self.committed.is_some()
+    }
+
+    /// Are there changes that the next [`Scene::commit`] will apply?
+    #[must_use]
+    pub fn has_changes(&self) -> bool {
+        self.changed
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scene_is_send_and_sync() {
+        fn check<T: Send + Sync>() {}
+        check::<Scene>();
+    }
+}
