@@ -4,6 +4,8 @@ use std::time::Instant;
 
 use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 
 use super::recurse::{build_subtree, root_node};
 use super::{Context, Scratch, MAX_TRIANGLES};
@@ -183,8 +185,12 @@ impl KdTreeBuilder {
             dispatch,
             count_max,
         } = self;
-        mesh_triangles.clear();
-        mesh_triangles.extend(mesh.triangles());
+        // Whether to build with `rayon` (not in a one-thread pool).
+        #[cfg(feature = "parallel")]
+        let parallel = rayon::current_num_threads() > 1;
+        #[cfg(not(feature = "parallel"))]
+        let parallel = false;
+        copy_triangles(mesh, mesh_triangles, parallel);
         let context = Context {
             triangles: mesh_triangles,
             costs: CostModel::new(params),
@@ -194,7 +200,7 @@ impl KdTreeBuilder {
             count_max: *count_max,
             dispatch: *dispatch,
             #[cfg(feature = "parallel")]
-            parallel: rayon::current_num_threads() > 1,
+            parallel,
         };
         layout.clear();
         layout.reserve_for(n);
@@ -219,7 +225,7 @@ impl KdTreeBuilder {
         tree.stats = BuildStats {
             triangles: n,
             nodes: nodes.len(),
-            leaves: nodes.iter().filter(|n| n.is_leaf()).count(),
+            leaves: count_leaves(nodes, parallel),
             nonempty_leaves: leaves.len() - 1,
             triangle_refs: ids.len(),
             max_depth,
@@ -230,4 +236,30 @@ impl KdTreeBuilder {
         };
         Ok(())
     }
+}
+
+/// How many of `nodes` are leaves (counted in parallel chunks when `parallel`).
+fn count_leaves(nodes: &[Node], parallel: bool) -> usize {
+    #[cfg(feature = "parallel")]
+    if parallel {
+        return nodes.par_iter().filter(|n| n.is_leaf()).count();
+    }
+    let _ = parallel;
+    nodes.iter().filter(|n| n.is_leaf()).count()
+}
+
+/// Replaces `out` with the triangles of `mesh`, by id (in parallel chunks when `parallel`).
+fn copy_triangles(mesh: &Mesh, out: &mut Vec<Triangle>, parallel: bool) {
+    out.clear();
+    #[cfg(feature = "parallel")]
+    if parallel {
+        out.par_extend(
+            (0..mesh.triangle_count())
+                .into_par_iter()
+                .map(|i| mesh.triangle(i)),
+        );
+        return;
+    }
+    let _ = parallel;
+    out.extend(mesh.triangles());
 }

@@ -27,12 +27,16 @@
 //! once the subtree is built, so no node allocates.
 //!
 //! With the `parallel` feature, the two children of a large node are built with `rayon::join`
-//! and their layouts stitched; the search and the classification do not depend on it, so the
-//! tree is the same with any number of threads.
+//! and their layouts stitched, and the largest nodes (the root first) bin and split their
+//! references in parallel chunks (module `parallel`), which put their results where one thread
+//! puts them: the search and the classification do not depend on the threads, so the tree is
+//! the same with any number of threads.
 
 mod builder;
 mod classify;
 mod empty_space;
+#[cfg(feature = "parallel")]
+mod parallel;
 mod recurse;
 mod stack;
 #[cfg(test)]
