@@ -33,9 +33,10 @@ pub(crate) struct BuildBenchArgs {
     /// `--features embree`.
     #[arg(long, default_value_t = 16)]
     embree_width: usize,
-    /// Worker threads, for the builds (kd-tree and Embree) and the frame.
-    #[arg(long, default_value_t = 1)]
-    threads: usize,
+    /// Worker threads, for the builds (kd-tree and Embree) and the frame; comma separated, a
+    /// row each, measured in turn in the same process.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    threads: Vec<usize>,
     /// Timed repetitions of each build and frame (the median is reported).
     #[arg(long, default_value_t = 3)]
     reps: usize,
@@ -61,6 +62,13 @@ struct Row {
     rebuild_ms: Option<f64>,
     /// The kd-tree's SAH cost ([`KdTree::sah_cost`]); none for Embree.
     sah_cost: Option<f64>,
+    /// The structure's bytes per mesh triangle: the kd-tree's [`kdbeam::BuildStats::bytes`]
+    /// (nodes, leaves, triangle copies), Embree's BVH as its memory monitor counts it (without
+    /// the vertex and index buffers).
+    bytes_per_triangle: f64,
+    /// The process's peak resident memory over the row's builds and frames, in MiB (Linux;
+    /// the mesh and the rays included).
+    peak_rss_mib: Option<f64>,
     frame_ms: f64,
     build_plus_frame_ms: f64,
 }
@@ -72,12 +80,16 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
             format!("must be 1, 4, 8 or 16, got {}", args.embree_width),
         ));
     }
-    let pool = thread_pool(Some(args.threads))?;
+    let pools = args
+        .threads
+        .iter()
+        .map(|&threads| Ok((threads, thread_pool(Some(threads))?)))
+        .collect::<Result<Vec<_>>>()?;
     let shape = packet_shape(args.packet)?;
     let scenes = scene_names(&args.scenes);
     if !args.json {
         println!(
-            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>11} {:>9} {:>11} {:>13}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11} {:>10} {:>11} {:>9} {:>7} {:>9} {:>11} {:>13}",
             "scene",
             "triangles",
             "struct",
@@ -87,6 +99,8 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
             "M tri/s",
             "rebuild ms",
             "SAH cost",
+            "B/tri",
+            "peak MiB",
             "frame ms",
             "build+frame"
         );
@@ -95,20 +109,21 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
         let (name, mesh) = load_scene(scene)?;
         let rays = RaysOf::primary(&mesh.bounds(), args.size);
         let packets = rays.kdbeam_layout(shape.ray_count())?;
-        let row =
-            |structure, setting, build: f64, rebuild: Option<f64>, sah_cost, frame: f64| Row {
-                scene: name.clone(),
-                triangles: mesh.triangle_count(),
-                structure,
-                setting,
-                threads: args.threads,
-                build_ms: 1e3 * build,
-                build_mtris_per_s: mesh.triangle_count() as f64 / build / 1e6,
-                rebuild_ms: rebuild.map(|s| 1e3 * s),
-                sah_cost,
-                frame_ms: 1e3 * frame,
-                build_plus_frame_ms: 1e3 * (build + frame),
-            };
+        let row = |structure, setting, threads, built: Built| Row {
+            scene: name.clone(),
+            triangles: mesh.triangle_count(),
+            structure,
+            setting,
+            threads,
+            build_ms: 1e3 * built.build,
+            build_mtris_per_s: mesh.triangle_count() as f64 / built.build / 1e6,
+            rebuild_ms: built.rebuild.map(|s| 1e3 * s),
+            sah_cost: built.sah_cost,
+            bytes_per_triangle: built.bytes as f64 / mesh.triangle_count().max(1) as f64,
+            peak_rss_mib: built.peak_rss.map(|b| b as f64 / (1 << 20) as f64),
+            frame_ms: 1e3 * built.frame,
+            build_plus_frame_ms: 1e3 * (built.build + built.frame),
+        };
         let settings = args.ci_over_ct.iter().flat_map(|&ci_over_ct| {
             args.exact_search_max
                 .iter()
@@ -119,8 +134,9 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                 .with_ci_over_ct(ci_over_ct)
                 .with_exact_search_max(exact_search_max);
             params.validate()?;
-            let (build, rebuild, sah_cost, frame) =
-                pool.install(|| -> Result<(f64, f64, f64, f64)> {
+            for (threads, pool) in &pools {
+                reset_peak_rss();
+                let built = pool.install(|| -> Result<Built> {
                     let build = median_seconds(args.reps, || {
                         let start = Instant::now();
                         let tree = KdTree::build(&mesh, &params)?;
@@ -139,65 +155,97 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                     })?;
                     let tracer = Tracer::new(&tree).with_packet(shape);
                     let (frame, _) = measure(args.reps, &tracer, &packets, false);
-                    Ok((build, rebuild, tree.sah_cost(ci_over_ct), frame))
+                    Ok(Built {
+                        build,
+                        rebuild: Some(rebuild),
+                        sah_cost: Some(tree.sah_cost(ci_over_ct)),
+                        bytes: tree.stats().bytes,
+                        peak_rss: peak_rss_bytes(),
+                        frame,
+                    })
                 })?;
-            print_row(
-                &row(
-                    "kdtree",
-                    format!("ci={ci_over_ct} exact≤{exact_search_max}"),
-                    build,
-                    Some(rebuild),
-                    Some(sah_cost),
-                    frame,
-                ),
-                args.json,
-            );
+                let setting = format!("ci={ci_over_ct} exact≤{exact_search_max}");
+                print_row(&row("kdtree", setting, *threads, built), args.json);
+            }
         }
         #[cfg(feature = "embree")]
         {
             use kdbeam_cli::embree::{BuildQuality, Context, EmbreeOptions, EmbreeScene};
             let embree_rays = rays.embree_layout(args.embree_width)?;
-            for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
+            let qualities = [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High];
+            for quality in qualities {
                 let options = EmbreeOptions {
                     quality,
                     ..EmbreeOptions::default()
                 };
-                let (build, frame) = pool.install(|| -> Result<(f64, f64)> {
-                    let build = median_seconds(args.reps, || {
-                        Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
+                for (threads, pool) in &pools {
+                    reset_peak_rss();
+                    let built = pool.install(|| -> Result<Built> {
+                        let build = median_seconds(args.reps, || {
+                            Ok(EmbreeScene::with_options(&mesh, &options)?.build_seconds())
+                        })?;
+                        let scene = EmbreeScene::with_options(&mesh, &options)?;
+                        // Camera packets: the coherent context, as in `kdbeam bench`.
+                        let frame = super::bench::embree_seconds(
+                            args.reps,
+                            &scene,
+                            &embree_rays,
+                            Context::Coherent,
+                            false,
+                        );
+                        Ok(Built {
+                            build,
+                            rebuild: None,
+                            sah_cost: None,
+                            bytes: scene.bvh_bytes(),
+                            peak_rss: peak_rss_bytes(),
+                            frame,
+                        })
                     })?;
-                    let scene = EmbreeScene::with_options(&mesh, &options)?;
-                    // Camera packets: the coherent context, as in `kdbeam bench`.
-                    let frame = super::bench::embree_seconds(
-                        args.reps,
-                        &scene,
-                        &embree_rays,
-                        Context::Coherent,
-                        false,
-                    );
-                    Ok((build, frame))
-                })?;
-                print_row(
-                    &row(
-                        "embree",
-                        format!("quality={}", quality.name()),
-                        build,
-                        None,
-                        None,
-                        frame,
-                    ),
-                    args.json,
-                );
+                    let setting = format!("quality={}", quality.name());
+                    print_row(&row("embree", setting, *threads, built), args.json);
+                }
             }
         }
     }
     Ok(())
 }
 
+/// What a row measured: seconds (medians) and bytes.
+struct Built {
+    build: f64,
+    rebuild: Option<f64>,
+    sah_cost: Option<f64>,
+    bytes: usize,
+    peak_rss: Option<u64>,
+    frame: f64,
+}
+
+/// Resets the process's peak resident memory to its current one (Linux, `clear_refs`), so that
+/// [`peak_rss_bytes`] reads the peak since; elsewhere nothing happens.
+fn reset_peak_rss() {
+    // Without /proc the peak is simply not reported.
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+/// The process's peak resident memory in bytes (`VmHWM`, Linux), if known.
+fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line
+        .trim_start_matches("VmHWM:")
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse()
+        .ok()?;
+    Some(kib * 1024)
+}
+
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>11} {:>9} {:>11.1} {:>13.1}",
+            "{:<22} {:>10} {:<8} {:<20} {:>8} {:>11.1} {:>10.2} {:>11} {:>9} {:>7.1} {:>9} {:>11.1} {:>13.1}",
             r.scene,
             r.triangles,
             r.structure,
@@ -207,6 +255,8 @@ fn print_row(r: &Row, json: bool) {
             r.build_mtris_per_s,
             r.rebuild_ms.map_or("-".into(), |ms| format!("{ms:.1}")),
             r.sah_cost.map_or("-".into(), |c| format!("{c:.2}")),
+            r.bytes_per_triangle,
+            r.peak_rss_mib.map_or("-".into(), |m| format!("{m:.0}")),
             r.frame_ms,
             r.build_plus_frame_ms
         )

@@ -1,7 +1,9 @@
 //! Uploading a mesh to Embree: device, scene, one triangle geometry, BVH build.
 
+use std::ffi::c_void;
 use std::ffi::CString;
 use std::ptr;
+use std::sync::atomic::{AtomicIsize, Ordering};
 use std::time::Instant;
 
 use embree::sys;
@@ -71,7 +73,12 @@ pub struct EmbreeScene {
     device: sys::RTCDevice,
     scene: sys::RTCScene,
     build_seconds: f64,
+    /// The bytes the commit allocated and kept: the BVH.
+    bvh_bytes: usize,
     options: EmbreeOptions,
+    /// The bytes the device holds, kept by [`count_memory`]; boxed, so that its address, which
+    /// the device holds, stays put. Dropped after the device (fields drop after `Drop::drop`).
+    memory: Box<AtomicIsize>,
 }
 
 // SAFETY: the handles are owned by this value and released once, in `Drop`. Embree's device
@@ -122,8 +129,19 @@ impl EmbreeScene {
             device,
             scene: ptr::null_mut(),
             build_seconds: 0.0,
+            bvh_bytes: 0,
             options: *options,
+            memory: Box::new(AtomicIsize::new(0)),
         };
+        // SAFETY: `device` is live; the counter is boxed in `out`, which releases the device
+        // before dropping it, so the pointer outlives every call of the monitor.
+        unsafe {
+            sys::rtcSetDeviceMemoryMonitorFunction(
+                device,
+                Some(count_memory),
+                ptr::from_ref::<AtomicIsize>(&out.memory).cast_mut().cast(),
+            );
+        }
         let start = Instant::now();
         // SAFETY: `device` is a live device handle owned by `out`.
         out.scene = unsafe { sys::rtcNewScene(device) };
@@ -144,16 +162,25 @@ impl EmbreeScene {
         if !mesh.is_empty() {
             out.attach_triangles(mesh)?;
         }
+        let uploaded = out.memory.load(Ordering::Relaxed);
         // SAFETY: `out.scene` is a live scene whose geometry is committed.
         unsafe { sys::rtcCommitScene(out.scene) };
         out.check("rtcCommitScene")?;
         out.build_seconds = start.elapsed().as_secs_f64();
+        out.bvh_bytes = (out.memory.load(Ordering::Relaxed) - uploaded).max(0) as usize;
         Ok(out)
     }
 
     /// Wall-clock seconds the upload and BVH build took.
     pub fn build_seconds(&self) -> f64 {
         self.build_seconds
+    }
+
+    /// The bytes Embree allocated while building the BVH and holds after it (its memory
+    /// monitor's count: the BVH's nodes and leaves; the copies of the vertices and indices
+    /// uploaded before are not counted).
+    pub fn bvh_bytes(&self) -> usize {
+        self.bvh_bytes
     }
 
     /// The options the scene was built with.
@@ -253,6 +280,18 @@ impl Drop for EmbreeScene {
             sys::rtcReleaseDevice(self.device);
         }
     }
+}
+
+/// Embree's memory monitor: adds the `bytes` of each allocation (negative for a release) to
+/// the counter at `counter`, and lets it happen.
+///
+/// # Safety
+/// `counter` points to a live `AtomicIsize`.
+unsafe extern "C" fn count_memory(counter: *mut c_void, bytes: sys::ssize_t, _post: bool) -> bool {
+    // SAFETY: the caller's contract; the counter is only ever accessed atomically.
+    let counter = unsafe { &*counter.cast::<AtomicIsize>() };
+    counter.fetch_add(bytes, Ordering::Relaxed);
+    true
 }
 
 /// Threads Embree may build with: those of the current rayon pool.

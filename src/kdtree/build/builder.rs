@@ -4,8 +4,12 @@ use std::time::Instant;
 
 use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 
 use super::recurse::{build_subtree, root_node};
+#[cfg(feature = "parallel")]
+use super::SpareStacks;
 use super::{Context, Scratch, MAX_TRIANGLES};
 use crate::kdtree::layout::Layout;
 use crate::kdtree::sah::{CostModel, COUNTED_SEARCH_MAX};
@@ -69,7 +73,8 @@ impl KdTree {
 /// `KdTreeBuilder`, into the previous frame's tree ([`KdTreeBuilder::rebuild`]), reuses the
 /// memory of both instead of asking the system for fresh pages: the trees are the same as
 /// [`KdTree::build`]'s, bit for bit. The builder holds its buffers (about 80 bytes per
-/// triangle reference of the largest tree it built) until it is dropped.
+/// triangle reference of the largest tree it built, and on several threads the reference
+/// stacks of the subtrees built by the others) until it is dropped.
 ///
 /// ```
 /// use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Mesh};
@@ -89,6 +94,9 @@ pub struct KdTreeBuilder {
     dispatch: Dispatch,
     /// [`Context::count_max`].
     count_max: usize,
+    /// [`Context::spare_stacks`].
+    #[cfg(feature = "parallel")]
+    spare_stacks: SpareStacks,
 }
 
 impl Default for KdTreeBuilder {
@@ -108,6 +116,8 @@ impl KdTreeBuilder {
             layout: Layout::default(),
             dispatch: Dispatch::preferred(),
             count_max: COUNTED_SEARCH_MAX,
+            #[cfg(feature = "parallel")]
+            spare_stacks: SpareStacks::default(),
         }
     }
 
@@ -182,9 +192,15 @@ impl KdTreeBuilder {
             layout,
             dispatch,
             count_max,
+            #[cfg(feature = "parallel")]
+            spare_stacks,
         } = self;
-        mesh_triangles.clear();
-        mesh_triangles.extend(mesh.triangles());
+        // Whether to build with `rayon` (not in a one-thread pool).
+        #[cfg(feature = "parallel")]
+        let parallel = rayon::current_num_threads() > 1;
+        #[cfg(not(feature = "parallel"))]
+        let parallel = false;
+        copy_triangles(mesh, mesh_triangles, parallel);
         let context = Context {
             triangles: mesh_triangles,
             costs: CostModel::new(params),
@@ -194,7 +210,9 @@ impl KdTreeBuilder {
             count_max: *count_max,
             dispatch: *dispatch,
             #[cfg(feature = "parallel")]
-            parallel: rayon::current_num_threads() > 1,
+            parallel,
+            #[cfg(feature = "parallel")]
+            spare_stacks,
         };
         layout.clear();
         layout.reserve_for(n);
@@ -219,7 +237,7 @@ impl KdTreeBuilder {
         tree.stats = BuildStats {
             triangles: n,
             nodes: nodes.len(),
-            leaves: nodes.iter().filter(|n| n.is_leaf()).count(),
+            leaves: count_leaves(nodes, parallel),
             nonempty_leaves: leaves.len() - 1,
             triangle_refs: ids.len(),
             max_depth,
@@ -230,4 +248,30 @@ impl KdTreeBuilder {
         };
         Ok(())
     }
+}
+
+/// How many of `nodes` are leaves (counted in parallel chunks when `parallel`).
+fn count_leaves(nodes: &[Node], parallel: bool) -> usize {
+    #[cfg(feature = "parallel")]
+    if parallel {
+        return nodes.par_iter().filter(|n| n.is_leaf()).count();
+    }
+    let _ = parallel;
+    nodes.iter().filter(|n| n.is_leaf()).count()
+}
+
+/// Replaces `out` with the triangles of `mesh`, by id (in parallel chunks when `parallel`).
+fn copy_triangles(mesh: &Mesh, out: &mut Vec<Triangle>, parallel: bool) {
+    out.clear();
+    #[cfg(feature = "parallel")]
+    if parallel {
+        out.par_extend(
+            (0..mesh.triangle_count())
+                .into_par_iter()
+                .map(|i| mesh.triangle(i)),
+        );
+        return;
+    }
+    let _ = parallel;
+    out.extend(mesh.triangles());
 }

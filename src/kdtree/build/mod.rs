@@ -27,12 +27,16 @@
 //! once the subtree is built, so no node allocates.
 //!
 //! With the `parallel` feature, the two children of a large node are built with `rayon::join`
-//! and their layouts stitched; the search and the classification do not depend on it, so the
-//! tree is the same with any number of threads.
+//! and their layouts stitched, and the largest nodes (the root first) bin and split their
+//! references in parallel chunks (module `parallel`), which put their results where one thread
+//! puts them: the search and the classification do not depend on the threads, so the tree is
+//! the same with any number of threads.
 
 mod builder;
 mod classify;
 mod empty_space;
+#[cfg(feature = "parallel")]
+mod parallel;
 mod recurse;
 mod stack;
 #[cfg(test)]
@@ -52,6 +56,10 @@ use empty_space::OpenCut;
 /// Nodes with more triangles than this build their children in parallel.
 #[cfg(feature = "parallel")]
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
+
+/// Spare reference stacks: a new one's pages are each faulted in at their first write.
+#[cfg(feature = "parallel")]
+type SpareStacks = std::sync::Mutex<Vec<Vec<Ref>>>;
 
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
@@ -82,6 +90,10 @@ struct Context<'a> {
     /// Whether to build children with `rayon::join` (not with a one-thread pool).
     #[cfg(feature = "parallel")]
     parallel: bool,
+    /// Reference stacks of subtrees built by other threads, and of the parallel splits, for
+    /// the next ones to reuse ([`KdTreeBuilder`] keeps them for its next build).
+    #[cfg(feature = "parallel")]
+    spare_stacks: &'a SpareStacks,
 }
 
 /// Per-thread buffers, reused by every node the thread builds.

@@ -5,6 +5,10 @@ use kdbeam_kernels::Aabb;
 
 use super::classify::split_boxes;
 use super::empty_space::{close_cuts, cut_off_empty_space};
+#[cfg(feature = "parallel")]
+use super::parallel::{
+    bins_in_parallel, give_back, push_root_refs, split_boxes_apart, take_stack, PARALLEL_NODE_MIN,
+};
 use super::stack::{reserve_stack, STACK_PER_TRIANGLE};
 #[cfg(feature = "parallel")]
 use super::PARALLEL_MIN_TRIANGLES;
@@ -39,23 +43,34 @@ pub(super) fn sweep_planes(
 /// The root: every triangle with its vertex box, the only references on `scratch`'s stack; its
 /// cell is the boxes' union, the mesh's bounds (those of the vertices its triangles use).
 pub(super) fn root_node(context: &Context<'_>, scratch: &mut Scratch) -> BoxNode {
-    let mut union = Bounds::EMPTY;
     // A build that failed may have left cuts open.
     scratch.open_cuts.clear();
     let refs = &mut scratch.refs;
     refs.clear();
     reserve_stack(refs, STACK_PER_TRIANGLE * context.triangles.len());
+    let union = root_refs(context, refs);
+    scratch.top = refs.len();
+    BoxNode {
+        refs: 0..scratch.top,
+        cell: union,
+        union: Some(union),
+    }
+}
+
+/// Pushes the references of every triangle (its vertex box) on the empty stack `refs`; returns
+/// their union.
+fn root_refs(context: &Context<'_>, refs: &mut Vec<Ref>) -> Aabb {
+    #[cfg(feature = "parallel")]
+    if context.parallel && context.triangles.len() > PARALLEL_NODE_MIN {
+        return push_root_refs(context.triangles, refs);
+    }
+    let mut union = Bounds::EMPTY;
     refs.extend(context.triangles.iter().zip(0..).map(|(t, id)| {
         let r = Ref::new(id, &Aabb::from_points([t.v0, t.v1, t.v2]));
         union.add(&r);
         r
     }));
-    scratch.top = refs.len();
-    BoxNode {
-        refs: 0..scratch.top,
-        cell: union.aabb(),
-        union: Some(union.aabb()),
-    }
+    union.aabb()
 }
 
 /// Builds `node` at `depth` and everything below it into `out`, depth first; pops the
@@ -74,7 +89,7 @@ pub(super) fn build_subtree(
     let searched = may_split(context, n, depth);
     let refs = &scratch.refs[node.refs.clone()];
     let bins = (searched && n > context.exact_max)
-        .then(|| Bins::new(refs, node.union.unwrap_or_else(|| union_of(refs))));
+        .then(|| bins_of(context, refs, node.union.unwrap_or_else(|| union_of(refs))));
     if searched && n <= context.exact_max {
         let Scratch { events, planes, .. } = scratch;
         if n <= context.count_max {
@@ -102,12 +117,24 @@ pub(super) fn build_subtree(
         None => make_leaf(&node, scratch, depth, out)?,
         Some(split) => {
             let mark = scratch.top;
-            let children = split_boxes(context, &node, &split, scratch);
-            build_children(context, children, &split, n, depth, scratch, out)?;
+            build_children(context, &node, &split, depth, scratch, out)?;
             scratch.top = mark;
         }
     }
     close_cuts(out, &mut scratch.open_cuts, open_mark)
+}
+
+/// The bins of a large node's references `refs` across their union `union` (in parallel
+/// chunks for the largest, when allowed).
+#[inline]
+fn bins_of(context: &Context<'_>, refs: &[Ref], union: Aabb) -> Bins {
+    #[cfg(feature = "parallel")]
+    if context.parallel && refs.len() > PARALLEL_NODE_MIN {
+        return bins_in_parallel(refs, union);
+    }
+    #[cfg(not(feature = "parallel"))]
+    let _ = context;
+    Bins::new(refs, union)
 }
 
 /// The union of the boxes of `refs`.
@@ -126,29 +153,36 @@ pub(super) fn may_split(context: &Context<'_>, n: usize, depth: u32) -> bool {
     n > context.leaf_size && depth < context.depth_limit
 }
 
-/// Builds the children `(below, above)` of a node of `n` triangles at `depth` split at `split`,
-/// and the inner node itself (in parallel for large nodes when allowed).
+/// Splits `node` at `depth` at `split` and builds its children and the inner node itself (in
+/// parallel for large nodes when allowed).
 pub(super) fn build_children(
     context: &Context<'_>,
-    (below, above): (BoxNode, BoxNode),
+    node: &BoxNode,
     split: &Split,
-    n: usize,
     depth: u32,
     scratch: &mut Scratch,
     out: &mut Layout,
 ) -> Result<()> {
     let position = unkey(split.pos_key);
     #[cfg(feature = "parallel")]
-    if context.parallel && n > PARALLEL_MIN_TRIANGLES {
-        // The above child moves to a stack of its own, for the other thread.
-        let mut above_scratch = Scratch::default();
-        above_scratch
-            .refs
-            .extend_from_slice(&scratch.refs[above.refs.clone()]);
-        above_scratch.top = above_scratch.refs.len();
-        let above = BoxNode {
-            refs: 0..above_scratch.top,
-            ..above
+    if context.parallel && node.refs.len() > PARALLEL_MIN_TRIANGLES {
+        // The above child's references go to a stack of their own, for the other thread.
+        let (below, above, above_refs) = if node.refs.len() > PARALLEL_NODE_MIN {
+            split_boxes_apart(context, node, split, scratch)
+        } else {
+            let (below, above) = split_boxes(context, node, split, scratch);
+            let mut above_refs = take_stack(context);
+            above_refs.extend_from_slice(&scratch.refs[above.refs.clone()]);
+            let above = BoxNode {
+                refs: 0..above_refs.len(),
+                ..above
+            };
+            (below, above, above_refs)
+        };
+        let mut above_scratch = Scratch {
+            top: above_refs.len(),
+            refs: above_refs,
+            ..Scratch::default()
         };
         let (mut below_out, mut above_out) = (Layout::default(), Layout::default());
         let (built_below, built_above) = rayon::join(
@@ -163,6 +197,7 @@ pub(super) fn build_children(
                 )
             },
         );
+        give_back(context, std::mem::take(&mut above_scratch.refs));
         built_below?;
         built_above?;
         let at = out.open_inner();
@@ -170,9 +205,8 @@ pub(super) fn build_children(
         out.close_inner(at, split.axis, position)?;
         return out.append(above_out);
     }
-    #[cfg(not(feature = "parallel"))]
-    let _ = n;
 
+    let (below, above) = split_boxes(context, node, split, scratch);
     let at = out.open_inner();
     build_subtree(context, below, depth + 1, scratch, out)?;
     out.close_inner(at, split.axis, position)?;

@@ -163,24 +163,47 @@ fn counted_swept_and_binned_searches_build_the_same_tree_on_every_isa() {
 #[cfg(feature = "parallel")]
 #[test]
 fn one_thread_and_many_threads_build_the_same_tree() {
-    // 20k triangles: several nodes above the parallel threshold.
-    let mesh = soup(20_000, 7);
-    for ci_over_ct in [0.1, 1.0, 10.0] {
-        let params = BuildParams {
-            ci_over_ct,
-            ..BuildParams::default()
-        };
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
+    // 20k triangles: several nodes above the parallel threshold of `rayon::join`; 150k, and a
+    // terrain of 80k whose flat triangles put planar boxes on the planes: nodes above
+    // `PARALLEL_NODE_MIN`, binned and split in parallel chunks.
+    let meshes = [
+        soup(20_000, 7),
+        soup(150_000, 8),
+        crate::scene::procedural::terrain(200, 9),
+    ];
+    assert!(meshes[1].triangle_count() > 2 * super::parallel::PARALLEL_NODE_MIN);
+    assert!(meshes[2].triangle_count() > super::parallel::PARALLEL_NODE_MIN);
+    let pool = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| KdTree::build(&mesh, &params).unwrap());
-        let four = rayon::ThreadPoolBuilder::new()
-            .num_threads(4)
-            .build()
-            .unwrap()
-            .install(|| KdTree::build(&mesh, &params).unwrap());
-        assert!(one.stats.nodes > 1000, "{}", one.stats);
-        assert!(same_tree(&one, &four), "ci/ct {ci_over_ct}");
+    };
+    let (one, two, four) = (pool(1), pool(2), pool(4));
+    for (m, mesh) in meshes.iter().enumerate() {
+        for ci_over_ct in [0.1, 1.0, 10.0] {
+            let params = BuildParams {
+                ci_over_ct,
+                ..BuildParams::default()
+            };
+            let serial = one.install(|| KdTree::build(mesh, &params).unwrap());
+            assert!(serial.stats.nodes > 1000, "{}", serial.stats);
+            for (threads, pool) in [(2, &two), (4, &four)] {
+                let parallel = pool.install(|| KdTree::build(mesh, &params).unwrap());
+                assert!(
+                    same_tree(&serial, &parallel) && serial.bounds == parallel.bounds,
+                    "mesh {m}, ci/ct {ci_over_ct}, {threads} threads"
+                );
+                assert_eq!(stats_but_time(&serial), stats_but_time(&parallel));
+            }
+            // A kept builder's rebuild, on many threads, is the same tree again.
+            let mut builder = KdTreeBuilder::new();
+            let mut tree = four.install(|| builder.build(&meshes[0], &params).unwrap());
+            four.install(|| builder.rebuild(&mut tree, mesh, &params).unwrap());
+            assert!(
+                same_tree(&serial, &tree),
+                "mesh {m}, ci/ct {ci_over_ct}, rebuilt"
+            );
+        }
     }
 }

@@ -42,26 +42,78 @@ pub(crate) struct Bins {
     above: [[f32; BINNED_PLANES]; 3],
 }
 
-impl Bins {
-    /// The candidates of the non-empty boxes of `refs` (at most 2³² − 1), whose union is
-    /// `union`. Counts are converted to f32, exact below 2²⁴ (beyond, rounding only blurs
-    /// near-ties).
+/// How many boxes start and end in each bin, per axis: [`Bins`] before its planes are placed.
+///
+/// Counts of disjoint runs of boxes add up ([`BinCounts::add`]) to those of the whole run, in
+/// integers, so that binning a large node in parallel chunks gives the same bins as binning it
+/// at once.
+#[derive(Clone, Copy)]
+pub(crate) struct BinCounts {
+    starts: [[u32; BINS]; 3],
+    ends: [[u32; BINS]; 3],
+}
+
+impl BinCounts {
+    /// No boxes.
+    pub const ZERO: BinCounts = BinCounts {
+        starts: [[0; BINS]; 3],
+        ends: [[0; BINS]; 3],
+    };
+
+    /// The counts of the boxes of `refs` in the bins across `union` (which holds them).
     #[inline]
-    pub fn new(refs: &[Ref], union: Aabb) -> Bins {
-        let per_unit = BINS as f32 / union.extent();
-        let (mut starts, mut ends) = ([[0u32; BINS]; 3], [[0u32; BINS]; 3]);
-        let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit));
+    pub fn of(refs: &[Ref], union: &Aabb) -> BinCounts {
+        let mut counts = BinCounts::ZERO;
+        let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit(union)));
         let last = Vec3A::splat((BINS - 1) as f32);
         // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
         let bin = |x: Vec3A| ((x - first) * scale).max(Vec3A::ZERO).min(last);
         for r in refs {
             let (lo, hi) = (truncate_to_i32(bin(r.lo())), truncate_to_i32(bin(r.hi())));
             for axis in 0..3 {
-                starts[axis][bin_index(lo[axis])] += 1;
-                ends[axis][bin_index(hi[axis])] += 1;
+                counts.starts[axis][bin_index(lo[axis])] += 1;
+                counts.ends[axis][bin_index(hi[axis])] += 1;
             }
         }
-        let n = refs.len() as u32;
+        counts
+    }
+
+    /// The counts of two disjoint runs of boxes binned across the same union, together.
+    #[cfg(feature = "parallel")]
+    #[inline]
+    #[must_use]
+    pub fn add(mut self, other: &BinCounts) -> BinCounts {
+        for axis in 0..3 {
+            for j in 0..BINS {
+                self.starts[axis][j] += other.starts[axis][j];
+                self.ends[axis][j] += other.ends[axis][j];
+            }
+        }
+        self
+    }
+}
+
+/// Bins per unit of length on each axis across `union`.
+#[inline(always)]
+fn per_unit(union: &Aabb) -> glam::Vec3 {
+    BINS as f32 / union.extent()
+}
+
+impl Bins {
+    /// The candidates of the non-empty boxes of `refs` (at most 2³² − 1), whose union is
+    /// `union`. Counts are converted to f32, exact below 2²⁴ (beyond, rounding only blurs
+    /// near-ties).
+    #[inline]
+    pub fn new(refs: &[Ref], union: Aabb) -> Bins {
+        Bins::from_counts(&BinCounts::of(refs, &union), refs.len(), union)
+    }
+
+    /// [`Bins::new`] from the [`BinCounts`] of the `n` boxes across `union`.
+    #[inline]
+    pub fn from_counts(counts: &BinCounts, n: usize, union: Aabb) -> Bins {
+        let per_unit = per_unit(&union);
+        let BinCounts { starts, ends } = counts;
+        let n = n as u32;
         let mut bins = Bins {
             pos: [[f32::NAN; BINNED_PLANES]; 3],
             below: [[0.0; BINNED_PLANES]; 3],

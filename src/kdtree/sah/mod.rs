@@ -9,6 +9,8 @@ mod bins;
 mod cost;
 mod exact;
 
+#[cfg(feature = "parallel")]
+pub(crate) use bins::BinCounts;
 pub(crate) use bins::Bins;
 pub(crate) use cost::{CostModel, Split};
 pub(crate) use exact::{ExactPlanes, COUNTED_SEARCH_MAX};
