@@ -20,7 +20,7 @@ use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
 pub use culling::{Culling, Frustum, Planes};
-pub use packet::PacketCounters;
+pub use packet::{PacketCounters, StageCycles};
 pub use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};

@@ -138,6 +138,25 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
                 pct(c.culled_aperture),
                 c.single_ray_visits_percent(),
             );
+            let rays = frame.rays().max(1) as f64;
+            let per_ray = |x: u64| x as f64 / rays;
+            let s = &c.cycles;
+            println!(
+                "cycles     TSC reference cycles per ray: {:.1} in all; ray generation {:.1}, \
+                 packet setup and inner nodes {:.1}, beams {:.1}, culling {:.1}, tests and hit \
+                 updates {:.1}, the rest (hit copies, loop) {:.1}",
+                per_ray(frame.frame_cycles),
+                per_ray(frame.generation_cycles),
+                per_ray(s.traversal.saturating_sub(s.leaves)),
+                per_ray(s.beams),
+                per_ray(s.culling),
+                per_ray(s.leaves.saturating_sub(s.beams + s.culling)),
+                per_ray(
+                    frame
+                        .frame_cycles
+                        .saturating_sub(frame.generation_cycles + s.traversal)
+                ),
+            );
         }
         let mut image = shade(&args, &tracer, &mesh, &frame)?;
         if args.heatmap {

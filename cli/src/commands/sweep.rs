@@ -15,14 +15,14 @@ use super::{load_scene, packet_shape, thread_pool, with_spinner};
 pub(crate) struct SweepArgs {
     /// The scene (default builtin:default).
     scene: Option<String>,
-    /// Smallest ci_over_ct.
-    #[arg(long, default_value_t = 0.1)]
+    /// Smallest ci_over_ct (the culled optimum of the shared scenes lies near 0.01–0.1).
+    #[arg(long, default_value_t = 0.01)]
     from: f32,
     /// Largest ci_over_ct.
     #[arg(long, default_value_t = 10.0)]
     to: f32,
     /// Tree sizes: ci_over_ct values, evenly spaced on a log scale.
-    #[arg(long, default_value_t = 9)]
+    #[arg(long, default_value_t = 13)]
     steps: usize,
     /// Image size of the primary rays, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]

@@ -28,6 +28,10 @@ pub struct Frame {
     pub counters: PacketCounters,
     /// Wall-clock seconds spent tracing.
     pub seconds: f64,
+    /// TSC reference cycles spent generating the rays (with the `stats` feature, else 0).
+    pub generation_cycles: u64,
+    /// TSC reference cycles of the whole frame, summed over threads (with `stats`, else 0).
+    pub frame_cycles: u64,
 }
 
 impl Frame {
@@ -81,6 +85,8 @@ pub fn trace_primary(
     let (tw, th) = (tracer.packet().width(), tracer.packet().height());
     let mut hits = vec![(Hit::NONE, 0u32); w * h];
     let band = |(band, out): (usize, &mut [(Hit, u32)])| {
+        let band_start = stamp();
+        let mut generation = 0;
         let mut counters = PacketCounters::default();
         let mut p = RayPacket::from_rays(&[]);
         let rows = out.len() / w;
@@ -88,7 +94,9 @@ pub fn trace_primary(
         for tx in (0..w).step_by(tw) {
             let cols = tw.min(w - tx);
             let (x0, y0) = (tx as u32, (band * th) as u32);
+            let fill_start = stamp();
             camera.fill_packet(x0, y0, cols as u32, rows as u32, &mut p);
+            generation += stamp() - fill_start;
             tracer.intersect_packet_counted(&p, p.full_mask(), &mut hp, &mut counters);
             for dy in 0..rows {
                 for dx in 0..cols {
@@ -98,13 +106,18 @@ pub fn trace_primary(
             }
         }
         progress(rows as u64);
-        counters
+        (counters, generation, stamp() - band_start)
     };
     let start = Instant::now();
-    let per_band: Vec<PacketCounters> = hits.par_chunks_mut(w * th).enumerate().map(band).collect();
+    let per_band: Vec<_> = hits.par_chunks_mut(w * th).enumerate().map(band).collect();
     let seconds = start.elapsed().as_secs_f64();
     let mut counters = PacketCounters::default();
-    per_band.iter().for_each(|c| counters.add(c));
+    let (mut generation_cycles, mut frame_cycles) = (0, 0);
+    for (c, generation, total) in &per_band {
+        counters.add(c);
+        generation_cycles += generation;
+        frame_cycles += total;
+    }
     let (hits, tests) = hits.into_iter().unzip();
     Frame {
         camera: *camera,
@@ -112,6 +125,17 @@ pub fn trace_primary(
         tests,
         counters,
         seconds,
+        generation_cycles,
+        frame_cycles,
+    }
+}
+
+/// The time-stamp counter with the `stats` feature (TSC reference cycles), 0 without it.
+fn stamp() -> u64 {
+    if cfg!(feature = "stats") {
+        kdbeam::kernels::lanes::tsc().unwrap_or(0)
+    } else {
+        0
     }
 }
 

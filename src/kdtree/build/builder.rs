@@ -42,7 +42,9 @@ impl KdTree {
     ///     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
     ///     [5.0, 0.0, 0.0], [6.0, 0.0, 0.0], [5.0, 1.0, 0.0],
     /// ])?;
-    /// let tree = kdbeam::KdTree::build(&mesh, &kdbeam::BuildParams::default())?;
+    /// // Splitting two triangles pays when a test costs more than a traversal step.
+    /// let params = kdbeam::BuildParams::default().with_ci_over_ct(1.5);
+    /// let tree = kdbeam::KdTree::build(&mesh, &params)?;
     /// assert_eq!(tree.stats().nonempty_leaves, 2);
     /// # Ok::<(), kdbeam::Error>(())
     /// ```

@@ -52,7 +52,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
     ) -> u64 {
         let mut open = visit.mask;
         let mut tests = 0u64;
-        let beam = leaf_beam(l, p, &visit, &self.culling, None);
+        let beam = leaf_beam(l, p, &visit, &self.culling, None, counters);
         let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
         #[allow(clippy::while_let_on_iterator)]
         while let Some((first, s)) = blocks.next() {

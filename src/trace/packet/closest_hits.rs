@@ -69,6 +69,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
             &visit,
             &self.culling,
             Some((&self.hits.t, self.has_hit)),
+            counters,
         );
         let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
         // `next` is called directly: a `for` loop goes through `&mut I`'s forwarding `next`,

@@ -61,11 +61,12 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
         l.splat(f32::MAX),
     );
     // Over the rays inside the root box: ranges of origin and reciprocal direction, the largest
-    // `|o·inv|` per axis, and the packet's interval.
-    let (mut o_lo, mut o_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    let (mut inv_lo, mut inv_hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    let mut err = [0f32; 3];
-    let (mut t_enter, mut t_exit) = (f32::INFINITY, f32::NEG_INFINITY);
+    // `|o·inv|` per axis, and the packet's interval; kept lane-wise over the groups and reduced
+    // once at the end.
+    let (mut o_lo, mut o_hi) = ([inf; 3], [ninf; 3]);
+    let (mut inv_lo, mut inv_hi) = ([inf; 3], [ninf; 3]);
+    let mut err = [l.splat(0.0); 3];
+    let (mut enter_lo, mut exit_hi) = (inf, ninf);
     let mut live_mask = 0u64;
     let mut inv_columns = [[0f32; N]; 3];
     for g in 0..groups {
@@ -96,21 +97,25 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
             continue;
         }
         live_mask |= u64::from(live.bits()) << b;
-        t_enter = t_enter.min(L::F32::select(live, tn, inf).reduce_min());
-        t_exit = t_exit.max(L::F32::select(live, tf, ninf).reduce_max());
+        enter_lo = enter_lo.min(L::F32::select(live, tn, inf));
+        exit_hi = exit_hi.max(L::F32::select(live, tf, ninf));
         for a in 0..3 {
-            o_lo[a] = o_lo[a].min(L::F32::select(live, rays.origin[a], inf).reduce_min());
-            o_hi[a] = o_hi[a].max(L::F32::select(live, rays.origin[a], ninf).reduce_max());
-            inv_lo[a] = inv_lo[a].min(L::F32::select(live, inv[a], inf).reduce_min());
-            inv_hi[a] = inv_hi[a].max(L::F32::select(live, inv[a], ninf).reduce_max());
+            o_lo[a] = o_lo[a].min(L::F32::select(live, rays.origin[a], inf));
+            o_hi[a] = o_hi[a].max(L::F32::select(live, rays.origin[a], ninf));
+            inv_lo[a] = inv_lo[a].min(L::F32::select(live, inv[a], inf));
+            inv_hi[a] = inv_hi[a].max(L::F32::select(live, inv[a], ninf));
             let e = (rays.origin[a] * inv[a]).abs().min(max);
-            err[a] = err[a].max(L::F32::select(live, e, l.splat(0.0)).reduce_max());
+            err[a] = err[a].max(L::F32::select(live, e, l.splat(0.0)));
         }
     }
     if live_mask == 0 {
         return 0;
     }
     counters.packets += 1;
+    let (mut t_enter, mut t_exit) = (enter_lo.reduce_min(), exit_hi.reduce_max());
+    let (o_lo, o_hi) = (axes_min(o_lo), axes_max(o_hi));
+    let (inv_lo, inv_hi) = (axes_min(inv_lo), axes_max(inv_hi));
+    let err = axes_max(err);
 
     let nodes = tree.nodes();
     let mut stack = [(0u32, 0f32, 0f32); STACK_DEPTH];
@@ -118,6 +123,9 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     let mut node_index = 0u32;
     let mut done = 0u64;
     let mut budget = INTERVAL_NODE_BUDGET;
+    // The latest best hit of an unfinished ray: a cell entered after it is skipped. It only
+    // changes in a leaf the rays were tested in.
+    let mut latest = latest_best(l, live_mask, visitor.best_t(), groups);
     loop {
         let node = nodes[node_index as usize];
         if !node.is_leaf() {
@@ -172,20 +180,10 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
                     scene_bound,
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
+                latest = latest_best(l, live_mask & !done, visitor.best_t(), groups);
             }
         }
         // Pop the next cell that some ray still needs: one entered before its best hit.
-        let active = live_mask & !done;
-        let best = visitor.best_t();
-        let mut latest = f32::NEG_INFINITY;
-        for g in 0..groups {
-            let bits = group_bits::<L>(active, g);
-            if bits != 0 {
-                let b = g * L::WIDTH;
-                let t = L::F32::select(l.mask_from_bits(bits), l.load(&best[b..]), ninf);
-                latest = latest.max(t.reduce_max());
-            }
-        }
         loop {
             if top == 0 {
                 return 0;
@@ -198,6 +196,34 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
             }
         }
     }
+}
+
+/// The largest `best[i]` over the rays `i` of `mask`; `-inf` for no ray.
+#[inline(always)]
+fn latest_best<L: Lanes>(l: L, mask: u64, best: &Column, groups: usize) -> f32 {
+    let ninf = l.splat(f32::NEG_INFINITY);
+    let mut latest = ninf;
+    for g in 0..groups {
+        let bits = group_bits::<L>(mask, g);
+        if bits != 0 {
+            let b = g * L::WIDTH;
+            let t = L::F32::select(l.mask_from_bits(bits), l.load(&best[b..]), ninf);
+            latest = latest.max(t);
+        }
+    }
+    latest.reduce_max()
+}
+
+/// Per axis, the smallest lane.
+#[inline(always)]
+fn axes_min<F: LaneF32>([x, y, z]: [F; 3]) -> [f32; 3] {
+    [x.reduce_min(), y.reduce_min(), z.reduce_min()]
+}
+
+/// Per axis, the largest lane.
+#[inline(always)]
+fn axes_max<F: LaneF32>([x, y, z]: [F; 3]) -> [f32; 3] {
+    [x.reduce_max(), y.reduce_max(), z.reduce_max()]
 }
 
 /// The rays of `mask` whose segment `[tmin, best]` meets `bounds`: the only ones that can have

@@ -28,7 +28,8 @@ use kdbeam_kernels::{HitPacket, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use any_hits::AnyHits;
 pub(crate) use closest_hits::ClosestHits;
-pub use counters::PacketCounters;
+pub(crate) use counters::Stamp;
+pub use counters::{PacketCounters, StageCycles};
 use interval::traverse_octant_interval;
 pub(crate) use lane_test::{KsLanes, LaneTest, LaneTestFamily, WatertightLaneTest};
 pub(crate) use octants::{octant_masks, traceable_mask};
@@ -85,6 +86,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
     q: &mut Query<'_>,
     visitor: &mut V,
 ) {
+    let start = Stamp::now();
     let p = q.packet;
     let mut t = Traversal {
         l,
@@ -107,6 +109,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
             traverse_octant(&mut t, per_ray, octant, q.stack);
         }
     }
+    start.add_to(&mut q.counters.cycles.traversal);
 }
 
 /// Closest hits of the rays of `q.active`, written to `hits` (misses and inactive or

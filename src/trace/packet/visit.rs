@@ -4,7 +4,7 @@
 use kdbeam_kernels::beam::{Beam, Survivors};
 use kdbeam_kernels::{Aabb, Lanes, RayPacket};
 
-use super::{Column, PacketCounters};
+use super::{Column, PacketCounters, Stamp};
 use crate::kdtree::LeafTriangles;
 use crate::trace::culling::Culling;
 
@@ -56,7 +56,10 @@ pub(super) fn visit_leaf<L: Lanes, V: PacketVisitor<L>>(
     {
         counters.active_rays[rays as usize] += 1;
     }
-    visitor.visit(l, p, visit, counters)
+    let start = Stamp::now();
+    let finished = visitor.visit(l, p, visit, counters);
+    start.add_to(&mut counters.cycles.leaves);
+    finished
 }
 
 /// The beam for this leaf visit, or `None` when the visit is tested unculled (culling off, too
@@ -68,8 +71,10 @@ pub(super) fn leaf_beam<L: Lanes>(
     visit: &LeafVisit<'_>,
     culling: &Culling,
     best: Option<(&Column, u64)>,
+    counters: &mut PacketCounters,
 ) -> Option<Beam<L>> {
-    culling
+    let start = Stamp::now();
+    let beam = culling
         .beam_rays(visit.triangles.ids.len(), visit.mask, visit.packet_mask)
         .and_then(|used| {
             Beam::new(
@@ -81,7 +86,9 @@ pub(super) fn leaf_beam<L: Lanes>(
                 culling.stages(),
                 visit.scene_bound,
             )
-        })
+        });
+    start.add_to(&mut counters.cycles.beams);
+    beam
 }
 
 /// The blocks of up to 64 triangles of a leaf that hold triangles to test, culled by a beam
@@ -96,6 +103,8 @@ pub(super) struct SurvivorBlocks<'v, L: Lanes> {
     tests: u64,
     #[cfg(feature = "stats")]
     culled: kdbeam_kernels::beam::CullCounts,
+    /// Cycles spent culling.
+    cull_cycles: u64,
 }
 
 impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
@@ -114,6 +123,7 @@ impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
             tests: 0,
             #[cfg(feature = "stats")]
             culled: Default::default(),
+            cull_cycles: 0,
         }
     }
 
@@ -126,7 +136,7 @@ impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
             counters.culled_distance += self.rays * u64::from(self.culled.distance);
             counters.culled_aperture += self.rays * u64::from(self.culled.aperture);
         }
-        let _ = counters;
+        counters.cycles.culling += self.cull_cycles;
         self.tests
     }
 }
@@ -141,7 +151,12 @@ impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
             let end = (first + 64).min(self.triangles.len());
             self.next = end;
             let s = match &mut self.beam {
-                Some(beam) => beam.cull(&self.triangles[first..end]),
+                Some(beam) => {
+                    let start = Stamp::now();
+                    let s = beam.cull(&self.triangles[first..end]);
+                    start.add_to(&mut self.cull_cycles);
+                    s
+                }
                 None => {
                     let n = end - first;
                     let all = if n == 64 { u64::MAX } else { (1 << n) - 1 };
