@@ -8,8 +8,6 @@ use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
 use rayon::prelude::*;
 
 use super::recurse::{build_subtree, root_node};
-#[cfg(feature = "parallel")]
-use super::SpareStacks;
 use super::{Context, Scratch, MAX_TRIANGLES};
 use crate::kdtree::layout::Layout;
 use crate::kdtree::sah::{CostModel, COUNTED_SEARCH_MAX};
@@ -75,8 +73,7 @@ impl KdTree {
 /// `KdTreeBuilder`, into the previous frame's tree ([`KdTreeBuilder::rebuild`]), reuses the
 /// memory of both instead of asking the system for fresh pages: the trees are the same as
 /// [`KdTree::build`]'s, bit for bit. The builder holds its buffers (about 80 bytes per
-/// triangle reference of the largest tree it built, and on several threads the reference
-/// stacks of the subtrees built by the others) until it is dropped.
+/// triangle reference of the largest tree it built) until it is dropped.
 ///
 /// ```
 /// use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Mesh};
@@ -96,9 +93,6 @@ pub struct KdTreeBuilder {
     dispatch: Dispatch,
     /// [`Context::count_max`].
     count_max: usize,
-    /// [`Context::spare_stacks`].
-    #[cfg(feature = "parallel")]
-    spare_stacks: SpareStacks,
 }
 
 impl Default for KdTreeBuilder {
@@ -118,8 +112,6 @@ impl KdTreeBuilder {
             layout: Layout::default(),
             dispatch: Dispatch::preferred(),
             count_max: COUNTED_SEARCH_MAX,
-            #[cfg(feature = "parallel")]
-            spare_stacks: SpareStacks::default(),
         }
     }
 
@@ -194,8 +186,6 @@ impl KdTreeBuilder {
             layout,
             dispatch,
             count_max,
-            #[cfg(feature = "parallel")]
-            spare_stacks,
         } = self;
         // Whether to build with `rayon` (not in a one-thread pool).
         #[cfg(feature = "parallel")]
@@ -213,8 +203,6 @@ impl KdTreeBuilder {
             dispatch: *dispatch,
             #[cfg(feature = "parallel")]
             parallel,
-            #[cfg(feature = "parallel")]
-            spare_stacks,
         };
         layout.clear();
         layout.reserve_for(n);

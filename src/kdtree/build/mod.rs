@@ -57,10 +57,6 @@ use empty_space::OpenCut;
 #[cfg(feature = "parallel")]
 const PARALLEL_MIN_TRIANGLES: usize = 4096;
 
-/// Spare reference stacks: a new one's pages are each faulted in at their first write.
-#[cfg(feature = "parallel")]
-type SpareStacks = std::sync::Mutex<Vec<Vec<Ref>>>;
-
 /// The most triangles a mesh may have (counts are `u32`, and node indices 30 bits).
 const MAX_TRIANGLES: usize = 1 << 30;
 
@@ -90,10 +86,6 @@ struct Context<'a> {
     /// Whether to build children with `rayon::join` (not with a one-thread pool).
     #[cfg(feature = "parallel")]
     parallel: bool,
-    /// Reference stacks of subtrees built by other threads, and of the parallel splits, for
-    /// the next ones to reuse ([`KdTreeBuilder`] keeps them for its next build).
-    #[cfg(feature = "parallel")]
-    spare_stacks: &'a SpareStacks,
 }
 
 /// Per-thread buffers, reused by every node the thread builds.

@@ -9,8 +9,6 @@
 //! maxima, and the children's references are written in the node's order, so the tree is the
 //! same with any number of threads.
 
-use std::sync::PoisonError;
-
 use bytemuck::Zeroable;
 use kdbeam_kernels::{Aabb, Triangle};
 use rayon::prelude::*;
@@ -126,13 +124,11 @@ fn split_apart_on<const AXIS: usize>(
             sides
         })
         .collect();
-    let below_len = chunks.iter().map(|c| c.below + c.clipped_below.len()).sum();
-    let mut below = take_stack(context);
-    zero_fill(&mut below, below_len);
+    let mut below = zeroed_refs(chunks.iter().map(|c| c.below + c.clipped_below.len()).sum());
     let above_len = chunks.iter().map(|c| c.above + c.clipped_above.len()).sum();
-    let mut above = take_stack(context);
+    let mut above = Vec::new();
     reserve_stack(&mut above, STACK_PER_TRIANGLE * above_len);
-    zero_fill(&mut above, above_len);
+    above.par_extend(rayon::iter::repeat_n(Ref::zeroed(), above_len));
     // As `split_boxes` orders them: the one-sided references in the node's order, then the
     // clipped ones in the order of their triangles' references.
     let below_parts = chunk_destinations(&mut below, &chunks, |c| (c.below, &c.clipped_below));
@@ -179,35 +175,15 @@ fn split_apart_on<const AXIS: usize>(
         cell: above_cell,
         union: binned.then(|| union_in_parallel(&above)),
     };
-    give_back(context, below);
     (below_node, above_node, above)
 }
 
-/// Replaces `refs` with `len` zeroed references, written in parallel (new pages are faulted in
-/// by the threads that write them).
-fn zero_fill(refs: &mut Vec<Ref>, len: usize) {
-    refs.clear();
+/// `len` zeroed references, written in parallel (a new array's pages are faulted in by the
+/// threads that write them).
+fn zeroed_refs(len: usize) -> Vec<Ref> {
+    let mut refs = Vec::with_capacity(len);
     refs.par_extend(rayon::iter::repeat_n(Ref::zeroed(), len));
-}
-
-/// An empty reference stack, with the memory of a spare one if there is one.
-pub(super) fn take_stack(context: &Context<'_>) -> Vec<Ref> {
-    let mut spare = context
-        .spare_stacks
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner);
-    let mut stack = spare.pop().unwrap_or_default();
-    stack.clear();
-    stack
-}
-
-/// Keeps `stack` for [`take_stack`].
-pub(super) fn give_back(context: &Context<'_>, stack: Vec<Ref>) {
-    context
-        .spare_stacks
-        .lock()
-        .unwrap_or_else(PoisonError::into_inner)
-        .push(stack);
+    refs
 }
 
 /// Cuts `out` into each chunk's places: its one-sided references' run and its clipped

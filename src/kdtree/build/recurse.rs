@@ -6,9 +6,7 @@ use kdbeam_kernels::Aabb;
 use super::classify::split_boxes;
 use super::empty_space::{close_cuts, cut_off_empty_space};
 #[cfg(feature = "parallel")]
-use super::parallel::{
-    bins_in_parallel, give_back, push_root_refs, split_boxes_apart, take_stack, PARALLEL_NODE_MIN,
-};
+use super::parallel::{bins_in_parallel, push_root_refs, split_boxes_apart, PARALLEL_NODE_MIN};
 use super::stack::{reserve_stack, STACK_PER_TRIANGLE};
 #[cfg(feature = "parallel")]
 use super::PARALLEL_MIN_TRIANGLES;
@@ -171,8 +169,7 @@ pub(super) fn build_children(
             split_boxes_apart(context, node, split, scratch)
         } else {
             let (below, above) = split_boxes(context, node, split, scratch);
-            let mut above_refs = take_stack(context);
-            above_refs.extend_from_slice(&scratch.refs[above.refs.clone()]);
+            let above_refs = scratch.refs[above.refs.clone()].to_vec();
             let above = BoxNode {
                 refs: 0..above_refs.len(),
                 ..above
@@ -197,7 +194,6 @@ pub(super) fn build_children(
                 )
             },
         );
-        give_back(context, std::mem::take(&mut above_scratch.refs));
         built_below?;
         built_above?;
         let at = out.open_inner();
