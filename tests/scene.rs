@@ -8,7 +8,9 @@ use kdbeam::rays::random_rays;
 use kdbeam::scene::procedural::{icosphere, quad_grid, triangle_soup};
 use kdbeam::scene::rng::Rng;
 use kdbeam::scene::world::{Query, SceneHit};
-use kdbeam::{Aabb, Error, GeometryId, InstanceId, Intersector, Mesh, Ray, Scene, Triangle, Vec3};
+use kdbeam::{
+    Aabb, Error, GeometryId, InstanceId, Intersector, Mesh, Ray, RayPacket, Scene, Triangle, Vec3,
+};
 
 /// One world-space triangle and where it comes from.
 struct WorldTriangle {
@@ -587,4 +589,62 @@ fn moving_instances_match_brute_force_after_each_commit() {
             check(&tris, &ray, &scene.intersect(&ray), u32::MAX, &|_| true);
         }
     }
+}
+
+#[test]
+fn packets_match_single_rays_bit_for_bit() {
+    let (mut scene, as_is, instances) = build_scene(13);
+    let tris = world_triangles(&scene, &as_is, &instances);
+    // Coherent packets (8×8 tiles of a pinhole camera) and incoherent ones (random rays).
+    let eye = Vec3::new(0.0, 4.0, -25.0);
+    let mut coherent = Vec::new();
+    for tile in 0..16 {
+        for k in 0..64 {
+            let (x, y) = ((tile % 4) * 8 + k % 8, (tile / 4) * 8 + k / 8);
+            let d = Vec3::new(x as f32 / 32.0 - 0.5, 0.5 - y as f32 / 32.0, 1.0);
+            coherent.push(Ray::new(eye, d));
+        }
+    }
+    let mut all = coherent;
+    all.extend(rays(&tris, 1024, 6));
+    all[70].direction = Vec3::new(f32::NAN, 0.0, 1.0);
+    let filter = |h: &SceneHit| !rejected(h.geometry, h.instance, h.triangle);
+    for intersector in Intersector::ALL {
+        scene.set_intersector(intersector);
+        for query in [
+            Query::default(),
+            Query {
+                mask: 0b1001,
+                filter: None,
+            },
+            Query {
+                mask: u32::MAX,
+                filter: Some(&filter),
+            },
+        ] {
+            for chunk in all.chunks(64) {
+                let packet = RayPacket::from_rays(chunk);
+                let active = packet.full_mask() & !0b100;
+                let mut hits = vec![SceneHit::NONE; 64];
+                hits[2].t = 1.0;
+                scene
+                    .intersect_packet(&packet, active, &query, &mut hits)
+                    .unwrap();
+                assert_eq!(hits[2].t, 1.0, "an inactive ray's hit is untouched");
+                for (i, r) in chunk.iter().enumerate().filter(|&(i, _)| i != 2) {
+                    assert_eq!(
+                        hits[i],
+                        scene.intersect_with(r, &query),
+                        "{intersector:?} {r:?}"
+                    );
+                }
+            }
+        }
+    }
+    let packet = RayPacket::from_rays(&all[..8]);
+    let mut short = [SceneHit::NONE; 4];
+    assert!(matches!(
+        scene.intersect_packet(&packet, packet.full_mask(), &Query::default(), &mut short),
+        Err(Error::InvalidParameter { .. })
+    ));
 }

@@ -25,7 +25,7 @@ pub(super) struct Committed {
     /// How many of `entries` are instances.
     pub instance_entries: usize,
     /// World box of each entry (empty for an empty mesh).
-    boxes: Vec<Aabb>,
+    pub boxes: Vec<Aabb>,
     /// The BVH over `boxes`.
     pub top: TopLevel,
 }

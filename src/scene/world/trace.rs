@@ -128,7 +128,7 @@ fn check_lengths(rays: usize, out: usize) -> Result<()> {
 
 /// `ray` in `entry`'s mesh space, over `[ray.tmin, tmax]`: the same `t` names the same point.
 #[inline]
-fn object_ray(entry: &Entry, ray: &Ray, tmax: f32) -> Ray {
+pub(super) fn object_ray(entry: &Entry, ray: &Ray, tmax: f32) -> Ray {
     if entry.as_is {
         return Ray { tmax, ..*ray };
     }
@@ -141,7 +141,7 @@ fn object_ray(entry: &Entry, ray: &Ray, tmax: f32) -> Ray {
 }
 
 #[inline]
-fn scene_hit(entry: &Entry, h: &Hit) -> SceneHit {
+pub(super) fn scene_hit(entry: &Entry, h: &Hit) -> SceneHit {
     SceneHit {
         t: h.t,
         u: h.u,
