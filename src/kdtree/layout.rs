@@ -1,7 +1,8 @@
 //! The depth-first output of a (sub)tree build: nodes, leaf records, leaf-ordered triangle ids,
-//! and the stitching of two subtrees built in parallel.
+//! the stitching of two subtrees built in parallel, and the leaves' triangle blocks.
 
-use kdbeam_kernels::Aabb;
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Aabb, Triangle, TriangleBlock};
 
 use super::{LeafRecord, Node, MAX_NODE_INDEX};
 use crate::{Error, Result};
@@ -154,17 +155,39 @@ impl Layout {
         self.ids.reserve(3 * triangles);
     }
 
-    /// Moves the final arrays into a tree's, swapping them (the layout keeps the tree's old
-    /// buffers for its next build). Returns the depth of the deepest leaf.
+    /// Moves the final nodes and records into a tree's, swapping them (the layout keeps the
+    /// tree's old buffers for its next build), and writes each leaf's triangles (`triangles`:
+    /// the mesh's, by id) into `blocks`, a run of [`TriangleBlock`]s per leaf, each record's
+    /// `first` becoming its first block. Returns the depth of the deepest leaf and the number
+    /// of triangle references.
     pub fn finish_into(
         &mut self,
         nodes: &mut Vec<Node>,
         leaves: &mut Vec<LeafRecord>,
-        ids: &mut Vec<u32>,
-    ) -> u32 {
+        blocks: &mut Vec<TriangleBlock>,
+        triangles: &[Triangle],
+    ) -> (u32, usize) {
         std::mem::swap(nodes, &mut self.nodes);
         std::mem::swap(leaves, &mut self.records);
-        std::mem::swap(ids, &mut self.ids);
-        self.max_depth
+        blocks.clear();
+        blocks.reserve(
+            leaves
+                .iter()
+                .map(|r| (r.count as usize).div_ceil(BLOCK))
+                .sum(),
+        );
+        for record in leaves.iter_mut().skip(1) {
+            let run = record.first as usize..(record.first + record.count) as usize;
+            // Block indices fit: there are no more blocks than triangle references.
+            record.first = blocks.len() as u32;
+            let ids = &self.ids[run];
+            let Some(&id0) = ids.first() else { continue };
+            let pad = triangles[id0 as usize].v0;
+            for chunk in ids.chunks(BLOCK) {
+                let lanes = chunk.iter().map(|&id| (triangles[id as usize], id));
+                blocks.push(TriangleBlock::new(pad, lanes));
+            }
+        }
+        (self.max_depth, self.ids.len())
     }
 }
