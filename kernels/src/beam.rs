@@ -216,16 +216,10 @@ impl<L: Lanes> Beam<L> {
             let cz0 = oz - ox * sz;
             let cy1 = cy0 + ldx * sy;
             let cz1 = cz0 + ldx * sz;
-            let keep = |v: L::F32, r: (L::F32, L::F32)| {
-                (
-                    L::F32::select(act, v, inf).min(r.0),
-                    L::F32::select(act, v, -inf).max(r.1),
-                )
-            };
-            y0 = keep(cy0, y0);
-            y1 = keep(cy1, y1);
-            z0 = keep(cz0, z0);
-            z1 = keep(cz1, z1);
+            y0 = widen::<L>(act, cy0, y0, inf);
+            y1 = widen::<L>(act, cy1, y1, inf);
+            z0 = widen::<L>(act, cz0, z0, inf);
+            z1 = widen::<L>(act, cz1, z1, inf);
             let start = ox + l.load(&p.tmin[b..]) * dxr;
             let end = ox + l.load(&p.tmax[b..]) * dxr;
             start_min = L::F32::select(act, start, inf).min(start_min);
@@ -396,17 +390,19 @@ impl<L: Lanes> Beam<L> {
         let mut culled = 0u32;
         let mut first = 0;
         while first < count {
-            let coords = |k: usize| {
-                [
-                    l.load(&block.v[k][0][first..]),
-                    l.load(&block.v[k][1][first..]),
-                    l.load(&block.v[k][2][first..]),
-                ]
-            };
-            let vertices = [coords(0), coords(1), coords(2)];
+            let vertices = [
+                load_vertex(l, &block.v[0], first),
+                load_vertex(l, &block.v[1], first),
+                load_vertex(l, &block.v[2], first),
+            ];
             let mut outside_any = l.mask_from_bits(0);
             for plane in &self.planes[..self.plane_count] {
-                let [wx, wy, wz, e] = plane.map(|c| l.splat(c));
+                let [wx, wy, wz, e] = [
+                    l.splat(plane[0]),
+                    l.splat(plane[1]),
+                    l.splat(plane[2]),
+                    l.splat(plane[3]),
+                ];
                 let mut outside = !l.mask_from_bits(0);
                 for [x, y, z] in vertices {
                     let d = x.mul_add(wx, y.mul_add(wy, z.mul_add(wz, e)));
@@ -563,4 +559,25 @@ enum Aperture {
     Occluder(f32),
     /// The guard failed, or the crossings straddle the triangle.
     Unknown,
+}
+
+/// `(min, max)` of `r` widened by the lanes `act` of `v` (`inf`: the identity of `min`).
+///
+/// A function, not a closure, which rustc may leave out of line without the ISA's features.
+#[inline(always)]
+fn widen<L: Lanes>(act: L::Mask, v: L::F32, r: (L::F32, L::F32), inf: L::F32) -> (L::F32, L::F32) {
+    (
+        L::F32::select(act, v, inf).min(r.0),
+        L::F32::select(act, v, -inf).max(r.1),
+    )
+}
+
+/// Lanes `first..first + WIDTH` of a block's vertex `v` (`[axis][lane]`), per axis.
+#[inline(always)]
+pub(crate) fn load_vertex<L: Lanes>(l: L, v: &[[f32; BLOCK]; 3], first: usize) -> [L::F32; 3] {
+    [
+        l.load(&v[0][first..]),
+        l.load(&v[1][first..]),
+        l.load(&v[2][first..]),
+    ]
 }

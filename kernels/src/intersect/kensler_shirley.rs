@@ -27,9 +27,10 @@
 //! [`Scalar`]: crate::lanes::Scalar
 
 use super::{cross3, dot3, splat3, sub3, LaneHits, LaneRays, TriangleHit};
+use crate::beam::load_vertex;
 use crate::lanes::{LaneF32, Lanes};
 use crate::ray::Ray;
-use crate::triangle::{KsTriangle, TriangleBlock, BLOCK};
+use crate::triangle::{KsTriangle, TriangleBlock};
 
 /// Kensler–Shirley test of one ray against one triangle.
 ///
@@ -108,18 +109,11 @@ pub fn intersect_block<L: Lanes>(
     tmin: f32,
     tmax: f32,
 ) -> LaneHits<L> {
-    let load = |v: &[[f32; BLOCK]; 3]| {
-        [
-            l.load(&v[0][first..]),
-            l.load(&v[1][first..]),
-            l.load(&v[2][first..]),
-        ]
-    };
     let (p0, e0, e1, n) = (
-        load(&block.v[0]),
-        load(&block.ks[0]),
-        load(&block.ks[1]),
-        load(&block.ks[2]),
+        load_vertex(l, &block.v[0], first),
+        load_vertex(l, &block.ks[0], first),
+        load_vertex(l, &block.ks[1], first),
+        load_vertex(l, &block.ks[2], first),
     );
     let d = splat3(l, ray.direction);
     let c = sub3(p0, splat3(l, ray.origin));

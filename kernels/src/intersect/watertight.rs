@@ -47,7 +47,7 @@ use glam::Vec3;
 use super::{dot3, splat3, LaneHits, LaneRays, TriangleHit};
 use crate::lanes::{LaneF32, LaneMask, Lanes};
 use crate::ray::Ray;
-use crate::triangle::{Triangle, TriangleBlock};
+use crate::triangle::{Triangle, TriangleBlock, BLOCK};
 
 /// A ray prepared for the watertight test: its axis permutation and shear.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -196,19 +196,22 @@ impl WatertightRay {
         valid: u32,
         (tmin, tmax): (f32, f32),
     ) -> LaneHits<L> {
-        let [kx, ky, kz] = self.axes;
-        let [ox, oy, oz] = self.origin.map(|o| l.splat(o));
-        let shear = self.shear.map(|c| l.splat(c));
-        let project = |k: usize| {
-            let v = &block.v[k];
-            let a = [
-                l.load(&v[kx][first..]) - ox,
-                l.load(&v[ky][first..]) - oy,
-                l.load(&v[kz][first..]) - oz,
-            ];
-            shear_vertex(a, &shear)
-        };
-        let sheared = [project(0), project(1), project(2)];
+        let origin = [
+            l.splat(self.origin[0]),
+            l.splat(self.origin[1]),
+            l.splat(self.origin[2]),
+        ];
+        let shear = [
+            l.splat(self.shear[0]),
+            l.splat(self.shear[1]),
+            l.splat(self.shear[2]),
+        ];
+        let axes = self.axes;
+        let sheared = [
+            project_lanes(l, &block.v[0], first, axes, &origin, &shear),
+            project_lanes(l, &block.v[1], first, axes, &origin, &shear),
+            project_lanes(l, &block.v[2], first, axes, &origin, &shear),
+        ];
         let t_range = (l.splat(tmin), l.splat(tmax));
         sheared_hits(l, sheared, l.mask_from_bits(valid), t_range)
     }
@@ -323,6 +326,25 @@ impl<L: Lanes> WatertightLanes<L> {
         ];
         sheared_hits(l, [a, b, c], !l.mask_from_bits(0), (tmin, tmax))
     }
+}
+
+/// Lanes `first..first + WIDTH` of a block's vertex `v` (`[axis][lane]`) minus `origin`,
+/// permuted to `axes`, sheared: [`WatertightRay::project`] per lane.
+#[inline(always)]
+fn project_lanes<L: Lanes>(
+    l: L,
+    v: &[[f32; BLOCK]; 3],
+    first: usize,
+    [kx, ky, kz]: [usize; 3],
+    origin: &[L::F32; 3],
+    shear: &[L::F32; 3],
+) -> [L::F32; 3] {
+    let a = [
+        l.load(&v[kx][first..]) - origin[0],
+        l.load(&v[ky][first..]) - origin[1],
+        l.load(&v[kz][first..]) - origin[2],
+    ];
+    shear_vertex(a, shear)
 }
 
 /// The watertight verdict, per lane, on the sheared vertices `a, b, c` (the tail of
