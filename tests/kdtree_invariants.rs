@@ -9,7 +9,8 @@
 use std::collections::BTreeSet;
 
 use kdbeam::kdtree::LeafRecord;
-use kdbeam::kernels::{KsTriangle, Vec3};
+use kdbeam::kernels::triangle::BLOCK;
+use kdbeam::kernels::{KsTriangle, TriangleBlock, Vec3};
 use kdbeam::{Aabb, BuildParams, Error, KdTree, Mesh, Triangle};
 
 mod common;
@@ -197,7 +198,7 @@ fn walk(tree: &KdTree, cap: usize) -> Result<Walk, String> {
                 .leaves()
                 .get(node.leaf_record() as usize)
                 .ok_or("leaf record out of range")?;
-            let ids = tree.leaf_triangles(&record).ids;
+            let ids: Vec<u32> = tree.leaf_triangles(&record).ids().collect();
             w.leaf_of_node[index] = w.leaves.len();
             w.leaves.push(LeafVisit {
                 cell,
@@ -301,19 +302,32 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
     let mut referenced_by: Vec<Vec<usize>> = vec![Vec::new(); mesh.triangle_count()];
     for (leaf_index, leaf) in leaves.iter().enumerate() {
         let content = tree.leaf_triangles(&leaf.record);
-        let mut ids = content.ids.to_vec();
+        let leaf_ids: Vec<u32> = content.ids().collect();
+        let mut ids = leaf_ids.clone();
         ids.sort_unstable();
         if ids.windows(2).any(|w| w[0] == w[1]) {
             return Err(format!(
-                "leaf {leaf_index}: a triangle referenced twice {:?}",
-                content.ids
+                "leaf {leaf_index}: a triangle referenced twice {leaf_ids:?}"
             ));
         }
         let (cell_lo, cell_hi) = (f64s(leaf.cell.min), f64s(leaf.cell.max));
         let mut union = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-        for (i, &id) in content.ids.iter().enumerate() {
+        if content.blocks.len() != content.len().div_ceil(BLOCK) {
+            return Err(format!(
+                "leaf {leaf_index}: {} blocks",
+                content.blocks.len()
+            ));
+        }
+        for lane in content.len()..content.blocks.len() * BLOCK {
+            let block = &content.blocks[lane / BLOCK];
+            let pad = block.triangle(lane % BLOCK);
+            if block.ids[lane % BLOCK] != u32::MAX || pad.v0 != pad.v1 || pad.v0 != pad.v2 {
+                return Err(format!("leaf {leaf_index}: padding lane {lane} is {pad:?}"));
+            }
+        }
+        for (i, &id) in leaf_ids.iter().enumerate() {
             let tri = mesh.triangle(id as usize);
-            if content.triangles[i] != tri || content.ks[i] != KsTriangle::from(&tri) {
+            if content.triangle(i) != tri || content.ks(i) != KsTriangle::from(&tri) {
                 return Err(format!(
                     "leaf {leaf_index}: triangle {id} not laid out as in the mesh"
                 ));
@@ -337,7 +351,7 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
             }
         }
         let b = leaf.record.bounds;
-        if content.ids.is_empty() {
+        if content.is_empty() {
             if !b.is_empty() {
                 return Err(format!("empty leaf {leaf_index} with a box {b:?}"));
             }
@@ -408,7 +422,11 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
         leaves.iter().map(|l| l.depth).max().unwrap_or(0),
         tree.nodes().len() * 8
             + std::mem::size_of_val(tree.leaves())
-            + refs * (size_of::<Triangle>() + size_of::<KsTriangle>() + 4),
+            + leaves
+                .iter()
+                .map(|l| (l.record.count as usize).div_ceil(BLOCK))
+                .sum::<usize>()
+                * size_of::<TriangleBlock>(),
     );
     let got = (
         s.triangles,
@@ -517,7 +535,7 @@ fn sah_separates_distant_clusters_and_cuts_off_empty_space() {
         .unwrap();
     let tree = build_and_check(&mesh, &BuildParams::default());
     for leaf in tree.leaves() {
-        let ids = tree.leaf_triangles(leaf).ids;
+        let ids: Vec<u32> = tree.leaf_triangles(leaf).ids().collect();
         assert!(
             ids.iter().all(|&i| i < 100) || ids.iter().all(|&i| i >= 100),
             "mixed leaf {ids:?}"
@@ -596,7 +614,7 @@ fn degenerate_triangles_build_and_stay_referenced() {
         let ids: BTreeSet<u32> = tree
             .leaves()
             .iter()
-            .flat_map(|l| tree.leaf_triangles(l).ids.iter().copied())
+            .flat_map(|l| tree.leaf_triangles(l).ids())
             .collect();
         assert_eq!(
             ids.len(),

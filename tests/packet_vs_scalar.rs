@@ -1,5 +1,5 @@
-//! Differential tests: every packet path (each ISA this CPU runs × packet size × intersector ×
-//! closest and any hit) against the scalar single-ray path, on procedural and shared scenes,
+//! Differential tests: every packet path and the single-ray path (each ISA this CPU runs ×
+//! packet size × intersector × closest and any hit) against the scalar single-ray path, on procedural and shared scenes,
 //! with primary, random and adversarial rays and random inactive lanes.
 //!
 //! Tolerance: none. The lane kernels perform the same IEEE-754 operations in the same order as
@@ -31,6 +31,23 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
             );
         }
         for isa in Isa::available() {
+            // Single rays: one ray against a vector of a leaf block's triangles per test.
+            let single = scalar.with_isa(isa).unwrap();
+            for (k, ray) in rays.iter().enumerate() {
+                let (got, want) = (single.intersect(ray), expected[k]);
+                assert!(
+                    got.triangle == want.triangle
+                        && got.t.to_bits() == want.t.to_bits()
+                        && (got.u.to_bits(), got.v.to_bits()) == (want.u.to_bits(), want.v.to_bits()),
+                    "{name} {isa} {intersector:?}: ray {k} {ray:?}: single {got:?}, scalar {want:?}"
+                );
+                assert_eq!(
+                    single.occluded(ray),
+                    expected_occ[k],
+                    "{name} {isa} {intersector:?}: single occluded, ray {k}"
+                );
+                compared += 1;
+            }
             for shape in PacketShape::ALL {
                 let tracer = scalar.with_isa(isa).unwrap().with_packet(shape);
                 let mut rng = Rng::new(seed);
@@ -74,11 +91,14 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
 fn packets_equal_scalar_on_procedural_scenes() {
     let mut total = 0;
     for (name, mesh) in common::scenes(false) {
-        let tree = KdTree::build(&mesh, &BuildParams::default()).unwrap();
         let mut rays = common::primary_rays(&mesh, 96, 96);
         rays.extend(random_rays(&mesh.bounds(), 4096, 7));
         rays.extend(common::adversarial_rays(&mesh, 4096, 11));
-        total += check(&name, &tree, &rays, 3);
+        // The default tree, and one of large leaves (several blocks of triangles each).
+        for ci in [1.5, 0.03] {
+            let tree = KdTree::build(&mesh, &BuildParams::default().with_ci_over_ct(ci)).unwrap();
+            total += check(&name, &tree, &rays, 3);
+        }
     }
     eprintln!("compared {total} ray results");
 }

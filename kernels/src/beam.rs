@@ -32,7 +32,7 @@ use crate::aabb::Aabb;
 use crate::groups::{group_bits, group_count};
 use crate::lanes::{LaneF32, LaneMask, Lanes, MAX_WIDTH};
 use crate::packet::{RayPacket, MAX_PACKET_RAYS};
-use crate::triangle::Triangle;
+use crate::triangle::{TriangleBlock, BLOCK};
 
 /// Which culling stages a beam runs, beyond the four side planes it always checks.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -58,7 +58,7 @@ pub struct CullCounts {
     pub aperture: u32,
 }
 
-/// The outcome of culling up to 64 triangles.
+/// The outcome of culling a block of up to [`BLOCK`] triangles.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Survivors {
     /// Bit `i` set: triangle `i` must be tested.
@@ -71,8 +71,6 @@ pub struct Survivors {
 }
 
 const PLANES: usize = 6;
-/// Room for the plane coefficients of any width: 6 planes padded to two 8-lane vectors.
-const FLAT: usize = 16;
 /// `δ = MARGIN·Λ`.
 const MARGIN: f32 = 1.0 / 16384.0;
 /// Barycentric margin of the aperture test.
@@ -90,17 +88,12 @@ pub struct Beam<L: Lanes> {
     sign: f32,
     corner: Vec3,
     dx: f32,
-    /// Plane `p` sits in lane `p % WIDTH` of vector `p / WIDTH`, in world coordinates:
-    /// `d = x·wx + y·wy + z·wz + e`, negative outside. Planes 4 and 5 are near and far when they
-    /// are folded in; padding lanes have `d = 1`.
-    wx: [L::F32; PLANES],
-    wy: [L::F32; PLANES],
-    wz: [L::F32; PLANES],
-    e: [L::F32; PLANES],
-    e_flat: [f32; FLAT],
+    /// Plane `p` in world coordinates, `[wx, wy, wz, e]`: `d = x·wx + y·wy + z·wz + e`,
+    /// negative outside. Planes 4 and 5 are near and far when they are folded in.
+    planes: [[f32; 4]; PLANES],
     /// The x' coefficient of the far plane, to move it in world coordinates.
     far_offset: f32,
-    plane_vectors: usize,
+    plane_count: usize,
     distance_folded: bool,
     near: f32,
     far: f32,
@@ -223,16 +216,10 @@ impl<L: Lanes> Beam<L> {
             let cz0 = oz - ox * sz;
             let cy1 = cy0 + ldx * sy;
             let cz1 = cz0 + ldx * sz;
-            let keep = |v: L::F32, r: (L::F32, L::F32)| {
-                (
-                    L::F32::select(act, v, inf).min(r.0),
-                    L::F32::select(act, v, -inf).max(r.1),
-                )
-            };
-            y0 = keep(cy0, y0);
-            y1 = keep(cy1, y1);
-            z0 = keep(cz0, z0);
-            z1 = keep(cz1, z1);
+            y0 = widen::<L>(act, cy0, y0, inf);
+            y1 = widen::<L>(act, cy1, y1, inf);
+            z0 = widen::<L>(act, cz0, z0, inf);
+            z1 = widen::<L>(act, cz1, z1, inf);
             let start = ox + l.load(&p.tmin[b..]) * dxr;
             let end = ox + l.load(&p.tmax[b..]) * dxr;
             start_min = L::F32::select(act, start, inf).min(start_min);
@@ -279,10 +266,10 @@ impl<L: Lanes> Beam<L> {
         // Reshetov's eq. (5): q1 (the x' coefficients) and q0 (the offsets) of the four side
         // planes, in local coordinates where x00 = 0 and x10 = dx, so q0 = [−z00, y01, z01, −y00].
         let inv_dx = 1.0 / dx;
-        let mut cx = [0.0f32; FLAT];
-        let mut cy = [0.0f32; FLAT];
-        let mut cz = [0.0f32; FLAT];
-        let mut e = [1.0f32; FLAT];
+        let mut cx = [0.0f32; PLANES];
+        let mut cy = [0.0f32; PLANES];
+        let mut cz = [0.0f32; PLANES];
+        let mut e = [1.0f32; PLANES];
         for (pl, (qx, qy, qz, q0)) in [
             ((z00 - z10) * inv_dx, 0.0, 1.0, -z00),
             ((y11 - y01) * inv_dx, -1.0, 0.0, y01),
@@ -299,11 +286,11 @@ impl<L: Lanes> Beam<L> {
             (cx[4], e[4]) = (1.0, -near);
             (cx[5], e[5]) = (-1.0, far);
         }
-        let plane_vectors = if distance_folded { PLANES } else { 4 }.div_ceil(w);
+        let plane_count = if distance_folded { PLANES } else { 4 };
         // To world coordinates: x' = s·(v[k] − c.x), y' = v[k1] − c.y, z' = v[k2] − c.z.
-        let mut wx = [0.0f32; FLAT];
-        let mut wy = [0.0f32; FLAT];
-        let mut wz = [0.0f32; FLAT];
+        let mut wx = [0.0f32; PLANES];
+        let mut wy = [0.0f32; PLANES];
+        let mut wz = [0.0f32; PLANES];
         for pl in 0..PLANES {
             let coef = [cx[pl] * sign, cy[pl], cz[pl]];
             e[pl] -= coef[0] * corner.x + coef[1] * corner.y + coef[2] * corner.z;
@@ -312,6 +299,10 @@ impl<L: Lanes> Beam<L> {
                 world[*a] = c;
             }
             (wx[pl], wy[pl], wz[pl]) = (world[0], world[1], world[2]);
+        }
+        let mut planes = [[0.0f32; 4]; PLANES];
+        for (pl, plane) in planes.iter_mut().enumerate() {
+            *plane = [wx[pl], wy[pl], wz[pl], e[pl]];
         }
         let corner_a = [[y00, y01, y01, y00], [z00, z00, z01, z01]];
         let corner_d = [
@@ -324,13 +315,9 @@ impl<L: Lanes> Beam<L> {
             sign,
             corner,
             dx,
-            wx: plane_vectors_of(l, &wx),
-            wy: plane_vectors_of(l, &wy),
-            wz: plane_vectors_of(l, &wz),
-            e: plane_vectors_of(l, &e),
-            e_flat: e,
+            planes,
             far_offset: sign * corner.x,
-            plane_vectors,
+            plane_count,
             distance_folded,
             near,
             far,
@@ -358,7 +345,15 @@ impl<L: Lanes> Beam<L> {
         )
     }
 
-    /// Culls `tris` (at most 64) against the beam; the survivors must be tested.
+    /// Culls the first `count` triangles of `block` against the beam (bit `i` of the result:
+    /// triangle `i`); the survivors must be tested. Lanes at or beyond `count` never survive.
+    ///
+    /// The side planes (and the near and far planes when folded in) are tested a vector of
+    /// triangles at a time: one fused multiply-add chain per vertex, plane and `WIDTH`
+    /// triangles (Reshetov's vertex culling, on Wald's structure-of-arrays triangle blocks
+    /// instead of one triangle per instruction). The same chain, in the same order, as per
+    /// triangle, so the verdicts are the same at every width. The survivors then meet the
+    /// per-triangle stages in order.
     ///
     /// **Side planes (vertex culling, Reshetov eq. 5).** For a local vertex `v`,
     /// `d = [v_z, −v_y, −v_z, v_y] + v_x·q1 + q0 = [v_z − zmin(v_x), ymax(v_x) − v_y,
@@ -386,38 +381,54 @@ impl<L: Lanes> Beam<L> {
     /// (`sin < 1/32`) and crossings near the slab's faces fail the guard, and the barycentric
     /// bounds carry a margin of 2⁻¹², so that rounding never decides.
     #[inline(always)]
-    pub fn cull(&mut self, tris: &[Triangle]) -> Survivors {
+    pub fn cull(&mut self, block: &TriangleBlock, count: usize) -> Survivors {
         let l = self.l;
+        let w = L::WIDTH;
         let zero = l.splat(0.0);
-        let mut out = Survivors::default();
-        for (i, tri) in tris.iter().enumerate().take(64) {
-            let mut culled = false;
-            for pv in 0..self.plane_vectors {
+        let count = count.min(BLOCK);
+        let valid = TriangleBlock::valid_bits(count);
+        let mut culled = 0u32;
+        let mut first = 0;
+        while first < count {
+            let vertices = [
+                load_vertex(l, &block.v[0], first),
+                load_vertex(l, &block.v[1], first),
+                load_vertex(l, &block.v[2], first),
+            ];
+            let mut outside_any = l.mask_from_bits(0);
+            for plane in &self.planes[..self.plane_count] {
+                let [wx, wy, wz, e] = [
+                    l.splat(plane[0]),
+                    l.splat(plane[1]),
+                    l.splat(plane[2]),
+                    l.splat(plane[3]),
+                ];
                 let mut outside = !l.mask_from_bits(0);
-                for v in [tri.v0, tri.v1, tri.v2] {
-                    let d = l.splat(v.x).mul_add(
-                        self.wx[pv],
-                        l.splat(v.y)
-                            .mul_add(self.wy[pv], l.splat(v.z).mul_add(self.wz[pv], self.e[pv])),
-                    );
+                for [x, y, z] in vertices {
+                    let d = x.mul_add(wx, y.mul_add(wy, z.mul_add(wz, e)));
                     outside = outside & d.lt(zero);
                 }
-                if outside.any() {
-                    culled = true;
-                    break;
-                }
+                outside_any = outside_any | outside;
             }
-            if culled {
-                #[cfg(feature = "stats")]
-                {
-                    out.culled.planes += 1;
-                }
-                continue;
-            }
-            if !self.stages.aperture && (self.distance_folded || !self.stages.distance) {
-                out.mask |= 1 << i;
-                continue;
-            }
+            culled |= outside_any.bits() << first;
+            first += w;
+        }
+        let culled = culled & valid;
+        let mut out = Survivors::default();
+        #[cfg(feature = "stats")]
+        {
+            out.culled.planes = culled.count_ones();
+        }
+        let left = valid & !culled;
+        if !self.stages.aperture && (self.distance_folded || !self.stages.distance) {
+            out.mask = u64::from(left);
+            return out;
+        }
+        let mut rest = left;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let tri = block.triangle(i);
             let v = [self.local(tri.v0), self.local(tri.v1), self.local(tri.v2)];
             if self.stages.aperture {
                 match self.aperture(&v) {
@@ -458,10 +469,7 @@ impl<L: Lanes> Beam<L> {
     fn set_far(&mut self, x_far: f32) {
         self.far = x_far;
         if self.distance_folded {
-            let w = L::WIDTH;
-            self.e_flat[5] = self.far_offset + x_far;
-            let v = 5 / w;
-            self.e[v] = self.l.load(&self.e_flat[(v * w).min(FLAT - w)..]);
+            self.planes[5][3] = self.far_offset + x_far;
         }
     }
 
@@ -553,17 +561,23 @@ enum Aperture {
     Unknown,
 }
 
-/// The plane coefficients `flat` as vectors of `L`'s width: vector `v` from plane `v · width`
-/// on, those past [`FLAT`] the last whole vector (their lanes are never read).
+/// `(min, max)` of `r` widened by the lanes `act` of `v` (`inf`: the identity of `min`).
 ///
-/// A function and a loop, not `array::from_fn`, whose closure can stay out of line without the
-/// ISA's target features, calling the vector intrinsics out of line.
+/// A function, not a closure, which rustc may leave out of line without the ISA's features.
 #[inline(always)]
-fn plane_vectors_of<L: Lanes>(l: L, flat: &[f32; FLAT]) -> [L::F32; PLANES] {
-    let w = L::WIDTH;
-    let mut vectors = [l.splat(0.0); PLANES];
-    for (v, vector) in vectors.iter_mut().enumerate() {
-        *vector = l.load(&flat[(v * w).min(FLAT - w)..]);
-    }
-    vectors
+fn widen<L: Lanes>(act: L::Mask, v: L::F32, r: (L::F32, L::F32), inf: L::F32) -> (L::F32, L::F32) {
+    (
+        L::F32::select(act, v, inf).min(r.0),
+        L::F32::select(act, v, -inf).max(r.1),
+    )
+}
+
+/// Lanes `first..first + WIDTH` of a block's vertex `v` (`[axis][lane]`), per axis.
+#[inline(always)]
+pub(crate) fn load_vertex<L: Lanes>(l: L, v: &[[f32; BLOCK]; 3], first: usize) -> [L::F32; 3] {
+    [
+        l.load(&v[0][first..]),
+        l.load(&v[1][first..]),
+        l.load(&v[2][first..]),
+    ]
 }

@@ -24,4 +24,4 @@ pub use glam::{DVec3, Vec3};
 pub use lanes::{Dispatch, Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 pub use packet::{HitPacket, PacketShape, RayPacket, MAX_PACKET_RAYS};
 pub use ray::{Hit, Ray};
-pub use triangle::{KsTriangle, Triangle};
+pub use triangle::{KsTriangle, Triangle, TriangleBlock};

@@ -11,7 +11,10 @@ use kdbeam_kernels::intersect::oracle::OracleRay;
 use kdbeam_kernels::intersect::watertight::{WatertightLanes, WatertightRay};
 use kdbeam_kernels::intersect::{LaneHits, TriangleHit};
 use kdbeam_kernels::lanes::Dispatch;
-use kdbeam_kernels::{Isa, KsTriangle, LaneMask, LaneTask, Lanes, Ray, Triangle, Vec3};
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{
+    Isa, KsTriangle, LaneMask, LaneTask, Lanes, Ray, Triangle, TriangleBlock, Vec3,
+};
 
 /// A single-ray intersector under test.
 type Intersector = fn(&Ray, &Triangle, f32, f32) -> Option<TriangleHit>;
@@ -388,6 +391,114 @@ fn rays_through_an_edge_line_take_the_f64_path_and_still_hit() {
             hits.iter().filter(|&&h| h).count(),
             1,
             "y = {y:e}: {hits:?}"
+        );
+    }
+}
+
+/// The block forms (one ray against `WIDTH` triangles of a [`TriangleBlock`]) against the
+/// single-ray forms, bit for bit; padding lanes must never hit, even unmasked. Returns the
+/// failures and how many lanes were compared.
+struct BlockVsSingle {
+    tris: Vec<Triangle>,
+    rays: Vec<Ray>,
+}
+
+impl LaneTask for BlockVsSingle {
+    type Output = (Vec<String>, usize);
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> (Vec<String>, usize) {
+        let mut failures = Vec::new();
+        let mut compared = 0;
+        // Blocks of every fill, 1 to BLOCK real triangles, so that every lane is padding in some.
+        let mut blocks = Vec::new();
+        let mut start = 0;
+        for count in (1..=BLOCK).cycle() {
+            if start >= self.tris.len() {
+                break;
+            }
+            let chunk = &self.tris[start..(start + count).min(self.tris.len())];
+            let lanes = chunk.iter().zip(start as u32..).map(|(t, id)| (*t, id));
+            blocks.push((TriangleBlock::new(chunk[0].v0, lanes), chunk.len(), start));
+            start += count;
+        }
+        let all = (1u32 << L::WIDTH) - 1;
+        for ray in &self.rays {
+            let w = WatertightRay::new(ray);
+            for (block, count, start) in &blocks {
+                for first in (0..BLOCK).step_by(L::WIDTH) {
+                    let (tmin, tmax) = (ray.tmin, ray.tmax);
+                    let results: [(&str, LaneHits<L>, Intersector); 2] = [
+                        (
+                            "kensler_shirley",
+                            kensler_shirley::intersect_block(l, ray, block, first, tmin, tmax),
+                            kensler_shirley,
+                        ),
+                        (
+                            "watertight",
+                            w.intersect_block(l, block, first, all, (tmin, tmax)),
+                            watertight,
+                        ),
+                    ];
+                    for (name, got, single) in results {
+                        let (t, u, v) =
+                            (lanes_of(l, got.t), lanes_of(l, got.u), lanes_of(l, got.v));
+                        for i in 0..L::WIDTH {
+                            compared += 1;
+                            let lane = first + i;
+                            let hit = got.mask.bits() >> i & 1 != 0;
+                            let want = if lane < *count {
+                                single(ray, &self.tris[start + lane], tmin, tmax)
+                            } else {
+                                None
+                            };
+                            let agrees = match want {
+                                None => !hit,
+                                Some(w) => {
+                                    hit && same(t[i], w.t) && same(u[i], w.u) && same(v[i], w.v)
+                                }
+                            };
+                            if !agrees {
+                                failures.push(format!(
+                                    "{} {name} lane {lane} of {count}: got {hit} ({}, {}, {}), \
+                                     want {want:?}; {ray:?} {:?}",
+                                    L::ISA,
+                                    t[i],
+                                    u[i],
+                                    v[i],
+                                    block.triangle(lane)
+                                ));
+                            }
+                        }
+                    }
+                    // Lanes left out of `valid` never hit.
+                    let masked = w.intersect_block(l, block, first, 0, (tmin, tmax));
+                    if masked.mask.any() {
+                        failures.push(format!("{} watertight hit with no valid lane", L::ISA));
+                    }
+                }
+            }
+        }
+        (failures, compared)
+    }
+}
+
+#[test]
+fn block_forms_equal_single_ray_forms_bit_for_bit_and_padding_never_hits_on_every_isa() {
+    let mut rng = Rng::new(9);
+    let (tris, rays) = lane_cases(&mut rng);
+    for isa in Isa::available() {
+        let task = BlockVsSingle {
+            tris: tris.clone(),
+            rays: rays.clone(),
+        };
+        let (failures, compared) = Dispatch::new(isa).expect("available ISA runs").run(task);
+        assert!(compared > 100_000, "{isa}: only {compared} lanes compared");
+        assert!(
+            failures.is_empty(),
+            "{isa}: {} failures, first {:#?}",
+            failures.len(),
+            &failures[..failures.len().min(5)]
         );
     }
 }

@@ -1,10 +1,11 @@
 //! The depth-first output of a (sub)tree build: nodes, leaf records, leaf-ordered triangle ids,
-//! and the stitching of subtrees built in parallel.
+//! the stitching of subtrees built in parallel, and the leaves' triangle blocks.
 
 #[cfg(feature = "parallel")]
 use std::ops::Range;
 
-use kdbeam_kernels::Aabb;
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Aabb, Triangle, TriangleBlock};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -279,24 +280,30 @@ impl Layout {
         self.ids.reserve(3 * triangles);
     }
 
-    /// Moves the final arrays into a tree's, swapping them (the layout keeps the tree's old
-    /// buffers for its next build), or, when subtrees were appended, copies the layout and its
-    /// pieces into them, in parallel. Returns the depth of the deepest leaf.
+    /// Moves the final nodes and records into a tree's, swapping them (the layout keeps the
+    /// tree's old buffers for its next build), or, when subtrees were appended, copies the
+    /// layout and its pieces into them, in parallel; then writes each leaf's triangles
+    /// (`triangles`: the mesh's, by id) into `blocks`, a run of [`TriangleBlock`]s per leaf,
+    /// each record's `first` becoming its first block. Returns the depth of the deepest leaf
+    /// and the number of triangle references.
     pub fn finish_into(
         &mut self,
         nodes: &mut Vec<Node>,
         leaves: &mut Vec<LeafRecord>,
-        ids: &mut Vec<u32>,
-    ) -> u32 {
+        blocks: &mut Vec<TriangleBlock>,
+        triangles: &[Triangle],
+    ) -> (u32, usize) {
         #[cfg(feature = "parallel")]
         if !self.pieces.is_empty() {
-            self.copy_into(nodes, leaves, ids);
-            return self.max_depth;
+            let mut ids = Vec::new();
+            self.copy_into(nodes, leaves, &mut ids);
+            write_blocks(leaves, &ids, blocks, triangles);
+            return (self.max_depth, ids.len());
         }
         std::mem::swap(nodes, &mut self.nodes);
         std::mem::swap(leaves, &mut self.records);
-        std::mem::swap(ids, &mut self.ids);
-        self.max_depth
+        write_blocks(leaves, &self.ids, blocks, triangles);
+        (self.max_depth, self.ids.len())
     }
 
     /// Copies the whole virtual arrays into `nodes`, `leaves` and `ids`, their runs in
@@ -355,6 +362,36 @@ impl Run<'_> {
             };
         }
         ids.copy_from_slice(&layout.ids[self.ids.clone()]);
+    }
+}
+
+/// Writes the triangles of every leaf of `leaves` (record 0 is the empty leaves') into `blocks`,
+/// a run of [`TriangleBlock`]s per leaf, from the leaf-ordered mesh ids `ids` that each record's
+/// `first` indexes; `first` becomes the leaf's first block.
+fn write_blocks(
+    leaves: &mut [LeafRecord],
+    ids: &[u32],
+    blocks: &mut Vec<TriangleBlock>,
+    triangles: &[Triangle],
+) {
+    blocks.clear();
+    blocks.reserve(
+        leaves
+            .iter()
+            .map(|r| (r.count as usize).div_ceil(BLOCK))
+            .sum(),
+    );
+    for record in leaves.iter_mut().skip(1) {
+        let run = record.first as usize..(record.first + record.count) as usize;
+        // Block indices fit: there are no more blocks than triangle references.
+        record.first = blocks.len() as u32;
+        let ids = &ids[run];
+        let Some(&id0) = ids.first() else { continue };
+        let pad = triangles[id0 as usize].v0;
+        for chunk in ids.chunks(BLOCK) {
+            let lanes = chunk.iter().map(|&id| (triangles[id as usize], id));
+            blocks.push(TriangleBlock::new(pad, lanes));
+        }
     }
 }
 

@@ -9,7 +9,8 @@ mod refs;
 mod sah;
 mod stats;
 
-use kdbeam_kernels::{Aabb, KsTriangle, Triangle};
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
 
 pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
@@ -144,39 +145,104 @@ impl BuildParams {
     }
 }
 
-/// What a leaf holds: a run of the leaf-ordered triangle arrays and its tight box.
+/// What a leaf holds: a run of the tree's triangle blocks and its tight box.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LeafRecord {
-    /// Index of the leaf's first triangle in the tree's leaf-ordered triangle arrays (see
-    /// [`KdTree::leaf_triangles`]).
+    /// Index of the leaf's first block in the tree's triangle blocks (see
+    /// [`KdTree::leaf_triangles`]); its `⌈count / BLOCK⌉` blocks follow.
     pub first: u32,
-    /// Number of triangles (0 for an empty leaf).
+    /// Number of triangles (0 for an empty leaf); the last block's lanes beyond it are padding.
     pub count: u32,
     /// The cell ∩ the union of the leaf's triangles clipped to the cell (empty when `count = 0`).
     /// The transient frustum is built against this box.
     pub bounds: Aabb,
 }
 
-/// A leaf's triangles, in the forms the kernels read.
+/// A leaf's triangles: `len` triangles in `⌈len / BLOCK⌉` [`TriangleBlock`]s, triangle `i` in
+/// lane `i % BLOCK` of block `i / BLOCK`; the lanes after the last are point-triangle padding
+/// that never hits.
+///
+/// ```
+/// let mesh = kdbeam::scene::procedural::builtin("icosphere:1")?;
+/// let tree = kdbeam::KdTree::build(&mesh, &kdbeam::BuildParams::default())?;
+/// let leaf = tree.leaves().iter().find(|l| l.count > 0).expect("a non-empty leaf");
+/// let tris = tree.leaf_triangles(leaf);
+/// let id = tris.id(0);
+/// assert_eq!(tris.triangle(0), mesh.triangle(id as usize));
+/// # Ok::<(), kdbeam::Error>(())
+/// ```
 #[derive(Clone, Copy, Debug)]
 pub struct LeafTriangles<'a> {
-    /// Vertices (watertight form, frustum culling).
-    pub triangles: &'a [Triangle],
-    /// Kensler–Shirley form.
-    pub ks: &'a [KsTriangle],
-    /// Mesh triangle ids.
-    pub ids: &'a [u32],
+    /// The blocks.
+    pub blocks: &'a [TriangleBlock],
+    /// Number of triangles.
+    pub len: usize,
 }
 
-/// An SAH kd-tree over a mesh, its triangles re-laid out in leaf order.
+impl<'a> LeafTriangles<'a> {
+    /// The first `len` triangles of `blocks`. Panics if `blocks` holds fewer.
+    #[must_use]
+    pub fn new(blocks: &'a [TriangleBlock], len: usize) -> Self {
+        assert!(
+            len <= blocks.len() * BLOCK,
+            "{len} triangles in {} blocks",
+            blocks.len()
+        );
+        LeafTriangles { blocks, len }
+    }
+
+    /// Number of triangles.
+    #[inline(always)]
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// No triangles?
+    #[inline(always)]
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Mesh id of triangle `i` (`u32::MAX` for a padding lane, `len <= i` in the last block).
+    /// Panics past the last block.
+    #[inline(always)]
+    #[must_use]
+    pub fn id(&self, i: usize) -> u32 {
+        self.blocks[i / BLOCK].ids[i % BLOCK]
+    }
+
+    /// Triangle `i` by its vertices (the point-triangle padding for `len <= i` in the last
+    /// block). Panics past the last block.
+    #[inline(always)]
+    #[must_use]
+    pub fn triangle(&self, i: usize) -> Triangle {
+        self.blocks[i / BLOCK].triangle(i % BLOCK)
+    }
+
+    /// Triangle `i` in Kensler–Shirley form (padding as for [`LeafTriangles::triangle`]).
+    /// Panics past the last block.
+    #[inline(always)]
+    #[must_use]
+    pub fn ks(&self, i: usize) -> KsTriangle {
+        self.blocks[i / BLOCK].ks_triangle(i % BLOCK)
+    }
+
+    /// The mesh ids, in leaf order.
+    pub fn ids(&self) -> impl Iterator<Item = u32> + 'a {
+        let leaf = *self;
+        (0..leaf.len).map(move |i| leaf.id(i))
+    }
+}
+
+/// An SAH kd-tree over a mesh, its triangles re-laid out in leaf order, in blocks of [`BLOCK`].
 #[derive(Clone, Debug)]
 pub struct KdTree {
     nodes: Vec<Node>,
     leaves: Vec<LeafRecord>,
-    triangles: Vec<Triangle>,
-    ks_triangles: Vec<KsTriangle>,
-    ids: Vec<u32>,
+    blocks: Vec<TriangleBlock>,
     bounds: Aabb,
     mesh_triangles: usize,
     stats: BuildStats,
@@ -201,11 +267,11 @@ impl KdTree {
     #[inline(always)]
     #[must_use]
     pub fn leaf_triangles(&self, leaf: &LeafRecord) -> LeafTriangles<'_> {
-        let r = leaf.first as usize..(leaf.first + leaf.count) as usize;
+        let first = leaf.first as usize;
+        let n = leaf.count as usize;
         LeafTriangles {
-            triangles: &self.triangles[r.clone()],
-            ks: &self.ks_triangles[r.clone()],
-            ids: &self.ids[r],
+            blocks: &self.blocks[first..first + n.div_ceil(BLOCK)],
+            len: n,
         }
     }
 

@@ -29,7 +29,8 @@
 //! [`RayPacket`]s (its quadrants), traced one after the other.
 
 use glam::Vec3;
-use kdbeam_kernels::{Aabb, KsTriangle, Ray, RayPacket, Triangle, MAX_PACKET_RAYS};
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Aabb, KsTriangle, Ray, RayPacket, Triangle, TriangleBlock, MAX_PACKET_RAYS};
 
 use super::rng::Rng;
 use crate::{Error, Result};
@@ -89,10 +90,8 @@ pub struct SyntheticCell {
     pub bounds: Aabb,
     /// The triangles, by vertex.
     pub triangles: Vec<Triangle>,
-    /// The same triangles in Kensler–Shirley form.
-    pub ks: Vec<KsTriangle>,
-    /// Triangle ids: `0..triangles.len()`.
-    pub ids: Vec<u32>,
+    /// The same triangles in leaf blocks, ids `0..triangles.len()`.
+    pub blocks: Vec<TriangleBlock>,
     /// The packets; a 16 × 16 packet is four consecutive 8 × 8 ones.
     pub packets: Vec<RayPacket>,
     /// The largest absolute coordinate of any vertex or ray origin (the beam's `scene_bound`).
@@ -255,8 +254,13 @@ pub fn generate(params: &SyntheticParams) -> Result<SyntheticCell> {
             min: Vec3::ZERO,
             max: Vec3::ONE,
         },
-        ks: triangles.iter().map(KsTriangle::from).collect(),
-        ids: (0..params.triangles as u32).collect(),
+        blocks: triangles
+            .chunks(BLOCK)
+            .zip((0..).step_by(BLOCK))
+            .map(|(chunk, first)| {
+                TriangleBlock::new(triangles[0].v0, chunk.iter().copied().zip(first..))
+            })
+            .collect(),
         triangles,
         packets,
         scene_bound: vertex_bound.max(origin_bound),
@@ -275,13 +279,13 @@ pub fn hit_rate(cell: &SyntheticCell) -> f64 {
         for i in 0..p.len() {
             let ray = p.ray(i);
             hits += cell
-                .ks
+                .triangles
                 .iter()
-                .filter(|t| intersect(&ray, t, ray.tmin, ray.tmax).is_some())
+                .filter(|t| intersect(&ray, &KsTriangle::from(*t), ray.tmin, ray.tmax).is_some())
                 .count() as u64;
         }
     }
-    let pairs = (cell.rays() * cell.ks.len()) as f64;
+    let pairs = (cell.rays() * cell.triangles.len()) as f64;
     if pairs == 0.0 {
         0.0
     } else {

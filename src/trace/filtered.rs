@@ -5,9 +5,11 @@
 //! so no hit behind a rejected one is lost.
 
 use kdbeam_kernels::intersect::watertight::WatertightRay;
-use kdbeam_kernels::{Hit, Ray};
+use kdbeam_kernels::lanes::Scalar;
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Hit, LaneF32, LaneMask, Ray};
 
-use super::single::{traverse, KsTest, LeafVisitor, ScalarTest, WatertightTest};
+use super::single::{traverse, BlockTest, KsTest, LeafVisitor, WatertightTest};
 use super::Intersector;
 use crate::kdtree::{KdTree, LeafTriangles};
 
@@ -66,7 +68,27 @@ pub fn any_hit(
     }
 }
 
-fn closest_with<T: ScalarTest, F: FnMut(&Hit) -> bool>(
+/// The hit of `ray` on triangle `i` of `leaf` in `[ray.tmin, tmax]`, by the scalar reference
+/// (one lane of the block test).
+#[inline(always)]
+fn scalar_test(
+    test: &impl BlockTest,
+    ray: &Ray,
+    leaf: &LeafTriangles<'_>,
+    i: usize,
+    tmax: f32,
+) -> Option<Hit> {
+    let (block, first) = (&leaf.blocks[i / BLOCK], i % BLOCK);
+    let h = test.test(Scalar, ray, (block, first, 1), tmax);
+    h.mask.any().then(|| Hit {
+        t: h.t.extract(0),
+        u: h.u.extract(0),
+        v: h.v.extract(0),
+        triangle: block.ids[first],
+    })
+}
+
+fn closest_with<T: BlockTest, F: FnMut(&Hit) -> bool>(
     tree: &KdTree,
     ray: &Ray,
     test: &T,
@@ -78,23 +100,19 @@ fn closest_with<T: ScalarTest, F: FnMut(&Hit) -> bool>(
         accept: F,
         hit: Hit,
     }
-    impl<T: ScalarTest, F: FnMut(&Hit) -> bool> LeafVisitor for Closest<'_, T, F> {
+    impl<T: BlockTest, F: FnMut(&Hit) -> bool> LeafVisitor for Closest<'_, T, F> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
-            for (i, &id) in leaf.ids.iter().enumerate() {
+            for i in 0..leaf.len() {
                 let tmax = if self.hit.is_hit() {
                     self.hit.t
                 } else {
                     self.ray.tmax
                 };
-                if let Some(h) = self.test.test(self.ray, &leaf, i, tmax) {
-                    let candidate = Hit {
-                        t: h.t,
-                        u: h.u,
-                        v: h.v,
-                        triangle: id,
-                    };
-                    if self.hit.is_beaten_by(h.t, id) && (self.accept)(&candidate) {
+                if let Some(candidate) = scalar_test(self.test, self.ray, &leaf, i, tmax) {
+                    if self.hit.is_beaten_by(candidate.t, candidate.triangle)
+                        && (self.accept)(&candidate)
+                    {
                         self.hit = candidate;
                     }
                 }
@@ -112,7 +130,7 @@ fn closest_with<T: ScalarTest, F: FnMut(&Hit) -> bool>(
     v.hit
 }
 
-fn any_with<T: ScalarTest, F: FnMut(&Hit) -> bool>(
+fn any_with<T: BlockTest, F: FnMut(&Hit) -> bool>(
     tree: &KdTree,
     ray: &Ray,
     test: &T,
@@ -124,17 +142,11 @@ fn any_with<T: ScalarTest, F: FnMut(&Hit) -> bool>(
         accept: F,
         found: bool,
     }
-    impl<T: ScalarTest, F: FnMut(&Hit) -> bool> LeafVisitor for Any<'_, T, F> {
+    impl<T: BlockTest, F: FnMut(&Hit) -> bool> LeafVisitor for Any<'_, T, F> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
-            for (i, &id) in leaf.ids.iter().enumerate() {
-                if let Some(h) = self.test.test(self.ray, &leaf, i, self.ray.tmax) {
-                    let hit = Hit {
-                        t: h.t,
-                        u: h.u,
-                        v: h.v,
-                        triangle: id,
-                    };
+            for i in 0..leaf.len() {
+                if let Some(hit) = scalar_test(self.test, self.ray, &leaf, i, self.ray.tmax) {
                     if (self.accept)(&hit) {
                         self.found = true;
                         return None;

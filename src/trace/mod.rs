@@ -169,9 +169,11 @@ impl<'t> Tracer<'t> {
         self.intersector
     }
 
-    /// The closest hit of one ray, on the scalar path: [`Hit::NONE`] for a miss or a ray that
-    /// cannot be traced (non-finite or zero direction, NaN origin, `tmin > tmax`). Equal `t`
-    /// goes to the smaller triangle id.
+    /// The closest hit of one ray: [`Hit::NONE`] for a miss or a ray that cannot be traced
+    /// (non-finite or zero direction, NaN origin, `tmin > tmax`). Equal `t` goes to the
+    /// smaller triangle id. The ray meets a leaf's triangles a vector of the ISA's width at a
+    /// time; on [`Isa::Scalar`] one by one, the reference every other path is checked against,
+    /// and every ISA returns its hit bit for bit.
     #[must_use]
     pub fn intersect(&self, ray: &Ray) -> Hit {
         self.intersect_counted(ray).0
@@ -180,12 +182,8 @@ impl<'t> Tracer<'t> {
     /// [`Tracer::intersect`], with its traversal counters.
     #[must_use]
     pub fn intersect_counted(&self, ray: &Ray) -> (Hit, RayCounters) {
-        match self.intersector {
-            Intersector::KenslerShirley => single::closest_hit(self.tree, ray, &KsTest),
-            Intersector::Watertight => {
-                single::closest_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray)))
-            }
-        }
+        let (_, hit, counters) = self.single::<false>(ray);
+        (hit, counters)
     }
 
     /// Is anything hit in `[tmin, tmax]`? (Shadow rays.) `false` for a ray that cannot be traced.
@@ -197,11 +195,25 @@ impl<'t> Tracer<'t> {
     /// [`Tracer::occluded`], with its traversal counters.
     #[must_use]
     pub fn occluded_counted(&self, ray: &Ray) -> (bool, RayCounters) {
+        let (occluded, _, counters) = self.single::<true>(ray);
+        (occluded, counters)
+    }
+
+    /// One ray on this tracer's ISA: `ANY` for an any-hit query.
+    #[inline]
+    fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
+        let tree = self.tree;
         match self.intersector {
-            Intersector::KenslerShirley => single::any_hit(self.tree, ray, &KsTest),
-            Intersector::Watertight => {
-                single::any_hit(self.tree, ray, &WatertightTest(WatertightRay::new(ray)))
-            }
+            Intersector::KenslerShirley => self.dispatch.run(single::SingleRay::<_, ANY> {
+                tree,
+                ray,
+                test: KsTest,
+            }),
+            Intersector::Watertight => self.dispatch.run(single::SingleRay::<_, ANY> {
+                tree,
+                ray,
+                test: WatertightTest(WatertightRay::new(ray)),
+            }),
         }
     }
 

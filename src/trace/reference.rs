@@ -63,8 +63,9 @@ pub fn kd_oracle(tree: &KdTree, ray: &Ray) -> Option<ReferenceHit> {
     }
     impl LeafVisitor for Oracle {
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
-            for (tri, &id) in leaf.triangles.iter().zip(leaf.ids) {
-                if let Some(h) = self.ray.intersect(tri, self.tmin, self.tmax) {
+            for i in 0..leaf.len() {
+                let id = leaf.id(i);
+                if let Some(h) = self.ray.intersect(&leaf.triangle(i), self.tmin, self.tmax) {
                     let hit = ReferenceHit {
                         t: h.t,
                         triangle: id,

@@ -1,10 +1,12 @@
-//! Single-ray kd-tree traversal: the scalar reference every packet path is checked against.
+//! Single-ray kd-tree traversal: on scalar lanes, the reference every packet path is checked
+//! against; on SIMD lanes, one ray against a vector of a leaf block's triangles per test.
 //!
 //! Front to back with a stack, as in pbrt's `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a
 //! leaf's triangles; traversal stops once the closest hit so far lies before the next cell.
 
-use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, TriangleHit};
-use kdbeam_kernels::{slab, Hit, LaneF32, Ray, Vec3};
+use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, LaneHits};
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{slab, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock, Vec3};
 
 use crate::kdtree::{KdTree, LeafTriangles};
 
@@ -39,6 +41,7 @@ pub fn is_traceable(ray: &Ray) -> bool {
 /// The near child is chosen by the sign bit of the direction, and a child is entered when its
 /// part of the interval ([`split_intervals`]) is non-empty; this is the packet traversal's rule,
 /// lane for lane, so both visit the same leaves.
+#[inline(always)]
 pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V) {
     if !is_traceable(ray) {
         return;
@@ -155,70 +158,118 @@ pub struct RayCounters {
     pub tests: u64,
 }
 
-/// One scalar ray–triangle test, as the traversal sees it.
-pub(crate) trait ScalarTest {
-    /// The hit of `ray` on triangle `i` of `leaf` in `[ray.tmin, tmax]`, if any.
-    fn test(&self, ray: &Ray, leaf: &LeafTriangles<'_>, i: usize, tmax: f32)
-        -> Option<TriangleHit>;
+/// One ray against a vector of a leaf block's triangles, as the traversal sees it.
+pub(crate) trait BlockTest {
+    /// The hits of `ray` on triangles `first..first + WIDTH` of `block` (one per lane) in
+    /// `[ray.tmin, tmax]`; only lanes of `valid` (bit `i`: triangle `first + i`) may hit.
+    fn test<L: Lanes>(
+        &self,
+        l: L,
+        ray: &Ray,
+        lanes: (&TriangleBlock, usize, u32),
+        tmax: f32,
+    ) -> LaneHits<L>;
 }
 
-/// The Kensler–Shirley test on the leaf's precomputed form.
+/// The Kensler–Shirley test on the block's precomputed form.
 pub(crate) struct KsTest;
 
-impl ScalarTest for KsTest {
+impl BlockTest for KsTest {
     #[inline(always)]
-    fn test(
+    fn test<L: Lanes>(
         &self,
+        l: L,
         ray: &Ray,
-        leaf: &LeafTriangles<'_>,
-        i: usize,
+        (block, first, valid): (&TriangleBlock, usize, u32),
         tmax: f32,
-    ) -> Option<TriangleHit> {
-        kensler_shirley::intersect(ray, &leaf.ks[i], ray.tmin, tmax)
+    ) -> LaneHits<L> {
+        let h = kensler_shirley::intersect_block(l, ray, block, first, ray.tmin, tmax);
+        LaneHits {
+            mask: h.mask & l.mask_from_bits(valid),
+            ..h
+        }
     }
 }
 
 /// The watertight test, its per-ray shear computed once.
 pub(crate) struct WatertightTest(pub WatertightRay);
 
-impl ScalarTest for WatertightTest {
+impl BlockTest for WatertightTest {
     #[inline(always)]
-    fn test(
+    fn test<L: Lanes>(
         &self,
+        l: L,
         ray: &Ray,
-        leaf: &LeafTriangles<'_>,
-        i: usize,
+        (block, first, valid): (&TriangleBlock, usize, u32),
         tmax: f32,
-    ) -> Option<TriangleHit> {
-        self.0.intersect(&leaf.triangles[i], ray.tmin, tmax)
+    ) -> LaneHits<L> {
+        self.0
+            .intersect_block(l, block, first, valid, (ray.tmin, tmax))
     }
 }
 
-/// The closest hit of `ray` (the tie rule of [`Hit::is_beaten_by`]) and the work it took.
-pub(crate) fn closest_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (Hit, RayCounters) {
-    struct Closest<'a, T> {
+/// The vectors of `WIDTH` triangles of `leaf` that hold real ones: `(block, first lane, valid
+/// lanes)`, in leaf order.
+#[inline(always)]
+fn lane_vectors<'a, L: Lanes>(
+    leaf: &LeafTriangles<'a>,
+) -> impl Iterator<Item = (&'a TriangleBlock, usize, u32)> + 'a {
+    let (blocks, len, w) = (leaf.blocks, leaf.len(), L::WIDTH);
+    let lane_bits = if w >= 32 { u32::MAX } else { (1u32 << w) - 1 };
+    (0..len.div_ceil(w)).map(move |v| {
+        let (b, first) = (v * w / BLOCK, v * w % BLOCK);
+        let valid = TriangleBlock::valid_bits(len - b * BLOCK) >> first & lane_bits;
+        (&blocks[b], first, valid)
+    })
+}
+
+/// The closest hit of `ray` (the tie rule of [`Hit::is_beaten_by`]) and the work it took, one
+/// ray against `WIDTH` triangles per test. With [`Scalar`](kdbeam_kernels::lanes::Scalar)
+/// lanes this is the scalar reference; every width finds the same hit, bit for bit: each lane
+/// computes what the scalar test does, and the lanes' hits are taken in leaf order through
+/// `is_beaten_by` (a hit the scalar loop would have rejected by its shrinking `tmax` lies
+/// beyond the best so far, so `is_beaten_by` rejects it too).
+#[inline(always)]
+pub(crate) fn closest_hit<L: Lanes>(
+    l: L,
+    tree: &KdTree,
+    ray: &Ray,
+    test: &impl BlockTest,
+) -> (Hit, RayCounters) {
+    struct Closest<'a, L, T> {
+        l: L,
         ray: &'a Ray,
         test: &'a T,
         hit: Hit,
         counters: RayCounters,
     }
-    impl<T: ScalarTest> LeafVisitor for Closest<'_, T> {
+    impl<L: Lanes, T: BlockTest> LeafVisitor for Closest<'_, L, T> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
             self.counters.leaves += 1;
-            self.counters.tests += leaf.ids.len() as u64;
-            for (i, &id) in leaf.ids.iter().enumerate() {
+            self.counters.tests += leaf.len() as u64;
+            let mut vectors = lane_vectors::<L>(&leaf);
+            // `next` directly: a `for` loop may leave the forwarding `next` out of line.
+            #[allow(clippy::while_let_on_iterator)]
+            while let Some((block, first, valid)) = vectors.next() {
                 let tmax = if self.hit.is_hit() {
                     self.hit.t
                 } else {
                     self.ray.tmax
                 };
-                if let Some(h) = self.test.test(self.ray, &leaf, i, tmax) {
-                    if self.hit.is_beaten_by(h.t, id) {
+                let h = self
+                    .test
+                    .test(self.l, self.ray, (block, first, valid), tmax);
+                let mut lanes = h.mask.bits();
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let (t, id) = (h.t.extract(lane), block.ids[first + lane]);
+                    if self.hit.is_beaten_by(t, id) {
                         self.hit = Hit {
-                            t: h.t,
-                            u: h.u,
-                            v: h.v,
+                            t,
+                            u: h.u.extract(lane),
+                            v: h.v.extract(lane),
                             triangle: id,
                         };
                     }
@@ -228,6 +279,7 @@ pub(crate) fn closest_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (
         }
     }
     let mut v = Closest {
+        l,
         ray,
         test,
         hit: Hit::NONE,
@@ -237,21 +289,34 @@ pub(crate) fn closest_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (
     (v.hit, v.counters)
 }
 
-/// Whether anything is hit in `[ray.tmin, ray.tmax]`, stopping at the first hit.
-pub(crate) fn any_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (bool, RayCounters) {
-    struct Any<'a, T> {
+/// Whether anything is hit in `[ray.tmin, ray.tmax]`, stopping after the first vector of
+/// triangles with a hit.
+#[inline(always)]
+pub(crate) fn any_hit<L: Lanes>(
+    l: L,
+    tree: &KdTree,
+    ray: &Ray,
+    test: &impl BlockTest,
+) -> (bool, RayCounters) {
+    struct Any<'a, L, T> {
+        l: L,
         ray: &'a Ray,
         test: &'a T,
         found: bool,
         counters: RayCounters,
     }
-    impl<T: ScalarTest> LeafVisitor for Any<'_, T> {
+    impl<L: Lanes, T: BlockTest> LeafVisitor for Any<'_, L, T> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
             self.counters.leaves += 1;
-            for i in 0..leaf.ids.len() {
-                self.counters.tests += 1;
-                if self.test.test(self.ray, &leaf, i, self.ray.tmax).is_some() {
+            let mut vectors = lane_vectors::<L>(&leaf);
+            #[allow(clippy::while_let_on_iterator)]
+            while let Some((block, first, valid)) = vectors.next() {
+                self.counters.tests += u64::from(valid.count_ones());
+                let h = self
+                    .test
+                    .test(self.l, self.ray, (block, first, valid), self.ray.tmax);
+                if h.mask.any() {
                     self.found = true;
                     return None;
                 }
@@ -260,6 +325,7 @@ pub(crate) fn any_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (bool
         }
     }
     let mut v = Any {
+        l,
         ray,
         test,
         found: false,
@@ -267,4 +333,27 @@ pub(crate) fn any_hit(tree: &KdTree, ray: &Ray, test: &impl ScalarTest) -> (bool
     };
     traverse(tree, ray, &mut v);
     (v.found, v.counters)
+}
+
+/// A single-ray query as a task generic over the lanes: `ANY` for [`any_hit`] (the hit is then
+/// [`Hit::NONE`] or any hit's), else [`closest_hit`].
+pub(crate) struct SingleRay<'a, T, const ANY: bool> {
+    pub tree: &'a KdTree,
+    pub ray: &'a Ray,
+    pub test: T,
+}
+
+impl<T: BlockTest, const ANY: bool> LaneTask for SingleRay<'_, T, ANY> {
+    type Output = (bool, Hit, RayCounters);
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> (bool, Hit, RayCounters) {
+        if ANY {
+            let (found, counters) = any_hit(l, self.tree, self.ray, &self.test);
+            (found, Hit::NONE, counters)
+        } else {
+            let (hit, counters) = closest_hit(l, self.tree, self.ray, &self.test);
+            (hit.is_hit(), hit, counters)
+        }
+    }
 }

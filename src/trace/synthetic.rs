@@ -15,11 +15,7 @@ impl<'a> From<&'a SyntheticCell> for Leaf<'a> {
     /// The cell as one kd-tree leaf: its triangles, the cell as the leaf box, its scene bound.
     fn from(cell: &'a SyntheticCell) -> Self {
         Leaf {
-            triangles: LeafTriangles {
-                triangles: &cell.triangles,
-                ks: &cell.ks,
-                ids: &cell.ids,
-            },
+            triangles: LeafTriangles::new(&cell.blocks, cell.triangles.len()),
             bounds: &cell.bounds,
             scene_bound: cell.scene_bound,
         }

@@ -58,8 +58,9 @@ pub(crate) struct BenchArgs {
     /// ISAs to measure, comma separated (default: every one this CPU runs).
     #[arg(long, value_delimiter = ',')]
     isa: Vec<Isa>,
-    /// Packet sizes to measure, comma separated; 1 is the single-ray scalar path (default:
-    /// 1, 4, 8, 16, 64).
+    /// Packet sizes to measure, comma separated; 1 is single rays, one ray against a vector of
+    /// a leaf's triangles per test (on the scalar ISA: the scalar reference) (default: 1, 4,
+    /// 8, 16, 64).
     #[arg(long, value_delimiter = ',')]
     packet: Vec<usize>,
     /// Culling settings to measure, comma separated: none, 4plane, 6plane or auto, `+aperture`
@@ -130,7 +131,8 @@ pub(crate) struct Row {
     pub(crate) mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
-    /// NaN (JSON `null`) when the run measures no scalar path (`--packet` without 1).
+    /// NaN (JSON `null`) when the run measures no scalar single-ray path (`--packet` without 1,
+    /// or `--isa` without scalar).
     speedup_vs_scalar: f64,
 }
 
@@ -227,14 +229,14 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
                 for layout in rays.kdbeam_layouts(packet, &args.layout)? {
-                    // Single rays are never culled, and run on the scalar path: one row for them.
-                    let (configs, cullings) = if packet == 1 {
-                        (&[Isa::Scalar][..], &args.culling[..1])
+                    // Single rays are never culled: one row per ISA for them.
+                    let cullings = if packet == 1 {
+                        &args.culling[..1]
                     } else {
-                        (&isas[..], &args.culling[..])
+                        &args.culling[..]
                     };
                     for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
-                        for &isa in configs {
+                        for &isa in &isas {
                             for &culling in cullings {
                                 let mut tracer = Tracer::new(&tree)
                                     .with_intersector(args.intersector)
@@ -247,7 +249,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     measure(args.reps, &tracer, &layout, args.rays.any_hit())
                                 });
                                 let mrays = layout.len() as f64 / seconds / 1e6;
-                                if packet == 1 {
+                                if packet == 1 && isa == Isa::Scalar {
                                     *scalar = Some(mrays);
                                 }
                                 let row = Row {
@@ -306,7 +308,7 @@ pub(crate) struct RaysOf {
 
 /// Rays in kdbeam's layout for one packet size.
 pub(crate) enum KdbeamRays {
-    /// Single rays, for the scalar path.
+    /// Single rays.
     Single(Vec<Ray>),
     /// Packets: pixel tiles of primary and secondary rays, consecutive random rays.
     Packets(Vec<RayPacket>),
@@ -579,7 +581,7 @@ fn embree_rows(
                 let mrays = embree_rays.len() as f64 / seconds / 1e6;
                 let scalar = rows
                     .iter()
-                    .find(|r| r.packet == 1 && r.threads == *threads && !r.is_embree())
+                    .find(|r| r.packet == 1 && r.threads == *threads && r.isa == "scalar")
                     .map(|r| r.mrays_per_s);
                 let row = Row {
                     scene: name.to_string(),

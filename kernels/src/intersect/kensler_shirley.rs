@@ -27,9 +27,10 @@
 //! [`Scalar`]: crate::lanes::Scalar
 
 use super::{cross3, dot3, splat3, sub3, LaneHits, LaneRays, TriangleHit};
+use crate::beam::load_vertex;
 use crate::lanes::{LaneF32, Lanes};
 use crate::ray::Ray;
-use crate::triangle::KsTriangle;
+use crate::triangle::{KsTriangle, TriangleBlock};
 
 /// Kensler–Shirley test of one ray against one triangle.
 ///
@@ -75,5 +76,57 @@ pub fn intersect_lanes<L: Lanes>(
     let v = dot3(w, splat3(l, tri.e0)) * r;
     let zero = l.splat(0.0);
     let mask = t.ge(tmin) & t.le(tmax) & u.ge(zero) & v.ge(zero) & (u + v).le(l.splat(1.0));
+    LaneHits { mask, t, u, v }
+}
+
+/// Kensler–Shirley test of one ray against the `WIDTH` triangles `first..first + WIDTH` of
+/// `block` (`first` a multiple of `WIDTH`), one triangle per lane, hits in `[tmin, tmax]`.
+///
+/// Lane `i` of the result is what [`intersect`] returns for triangle `first + i` in its
+/// [`KsTriangle`] form (the block's `ks` and `v[0]`), bit for bit: the same operations, no FMA.
+/// The block's point-triangle padding never hits (`n = 0`, NaN `t`). Panics if
+/// `first + WIDTH > BLOCK`.
+///
+/// ```
+/// use kdbeam_kernels::intersect::kensler_shirley::intersect_block;
+/// use kdbeam_kernels::{LaneMask, Lanes, Ray, Triangle, TriangleBlock, Vec3};
+/// use kdbeam_kernels::lanes::Scalar;
+///
+/// let tri = Triangle::new(Vec3::new(-1.0, -1.0, 2.0), Vec3::new(1.0, -1.0, 2.0), Vec3::new(0.0, 1.0, 2.0));
+/// let mut block = TriangleBlock::padding(tri.v0);
+/// block.set(0, &tri, 0);
+/// let ray = Ray::new(Vec3::ZERO, Vec3::Z);
+/// let l = Scalar;
+/// assert!(intersect_block(l, &ray, &block, 0, 0.0, f32::INFINITY).mask.any());
+/// assert!(intersect_block(l, &ray, &block, 1, 0.0, f32::INFINITY).mask.none());
+/// ```
+#[inline(always)]
+pub fn intersect_block<L: Lanes>(
+    l: L,
+    ray: &Ray,
+    block: &TriangleBlock,
+    first: usize,
+    tmin: f32,
+    tmax: f32,
+) -> LaneHits<L> {
+    let (p0, e0, e1, n) = (
+        load_vertex(l, &block.v[0], first),
+        load_vertex(l, &block.ks[0], first),
+        load_vertex(l, &block.ks[1], first),
+        load_vertex(l, &block.ks[2], first),
+    );
+    let d = splat3(l, ray.direction);
+    let c = sub3(p0, splat3(l, ray.origin));
+    let r = l.splat(1.0) / dot3(n, d);
+    let t = dot3(n, c) * r;
+    let w = cross3(c, d);
+    let u = dot3(w, e1) * r;
+    let v = dot3(w, e0) * r;
+    let zero = l.splat(0.0);
+    let mask = t.ge(l.splat(tmin))
+        & t.le(l.splat(tmax))
+        & u.ge(zero)
+        & v.ge(zero)
+        & (u + v).le(l.splat(1.0));
     LaneHits { mask, t, u, v }
 }

@@ -47,7 +47,7 @@ use glam::Vec3;
 use super::{dot3, splat3, LaneHits, LaneRays, TriangleHit};
 use crate::lanes::{LaneF32, LaneMask, Lanes};
 use crate::ray::Ray;
-use crate::triangle::Triangle;
+use crate::triangle::{Triangle, TriangleBlock, BLOCK};
 
 /// A ray prepared for the watertight test: its axis permutation and shear.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -177,6 +177,46 @@ impl WatertightRay {
     }
 }
 
+impl WatertightRay {
+    /// Watertight test of this ray against the `WIDTH` triangles `first..first + WIDTH` of
+    /// `block` (`first` a multiple of `WIDTH`), one triangle per lane, hits in `[tmin, tmax]`;
+    /// only the lanes of `valid` (bit `i`: triangle `first + i`) may hit.
+    ///
+    /// Lane `i` of the result is what [`WatertightRay::intersect`] returns for triangle
+    /// `first + i`, bit for bit (the same projection, edge functions and `f64` fallback, no
+    /// FMA). Lanes outside `valid` (a leaf's padding) are left out before the fallback, which
+    /// they would otherwise always take (a point triangle's edge functions are 0).
+    /// Panics if `first + WIDTH > BLOCK`.
+    #[inline(always)]
+    pub fn intersect_block<L: Lanes>(
+        &self,
+        l: L,
+        block: &TriangleBlock,
+        first: usize,
+        valid: u32,
+        (tmin, tmax): (f32, f32),
+    ) -> LaneHits<L> {
+        let origin = [
+            l.splat(self.origin[0]),
+            l.splat(self.origin[1]),
+            l.splat(self.origin[2]),
+        ];
+        let shear = [
+            l.splat(self.shear[0]),
+            l.splat(self.shear[1]),
+            l.splat(self.shear[2]),
+        ];
+        let axes = self.axes;
+        let sheared = [
+            project_lanes(l, &block.v[0], first, axes, &origin, &shear),
+            project_lanes(l, &block.v[1], first, axes, &origin, &shear),
+            project_lanes(l, &block.v[2], first, axes, &origin, &shear),
+        ];
+        let t_range = (l.splat(tmin), l.splat(tmax));
+        sheared_hits(l, sheared, l.mask_from_bits(valid), t_range)
+    }
+}
+
 /// Per lane, which axis an index (`kx`, `ky` or `kz`) names: `x`, `y`, or (neither) `z`.
 #[derive(Clone, Copy, Debug)]
 struct LaneAxis<L: Lanes> {
@@ -284,25 +324,58 @@ impl<L: Lanes> WatertightLanes<L> {
             self.project(l, tri.v1),
             self.project(l, tri.v2),
         ];
-        let zero = l.splat(0.0);
-        let mut e = edge_functions(&a, &b, &c);
-        let on_edge = e[0].eq(zero) | e[1].eq(zero) | e[2].eq(zero);
-        if on_edge.any() {
-            e = edge_functions_f64_lanes(l, on_edge, [&a, &b, &c], e);
-        }
-        let [eu, ev, ew] = e;
-        let nonneg = eu.ge(zero) & ev.ge(zero) & ew.ge(zero);
-        let nonpos = eu.le(zero) & ev.le(zero) & ew.le(zero);
-        let det = eu + ev + ew;
-        let rcp = l.splat(1.0) / det;
-        let t = dot3(e, [a[2], b[2], c[2]]) * rcp;
-        let mask = (nonneg | nonpos).and_not(det.eq(zero)) & t.ge(tmin) & t.le(tmax);
-        LaneHits {
-            mask,
-            t,
-            u: ev * rcp,
-            v: ew * rcp,
-        }
+        sheared_hits(l, [a, b, c], !l.mask_from_bits(0), (tmin, tmax))
+    }
+}
+
+/// Lanes `first..first + WIDTH` of a block's vertex `v` (`[axis][lane]`) minus `origin`,
+/// permuted to `axes`, sheared: [`WatertightRay::project`] per lane.
+#[inline(always)]
+fn project_lanes<L: Lanes>(
+    l: L,
+    v: &[[f32; BLOCK]; 3],
+    first: usize,
+    [kx, ky, kz]: [usize; 3],
+    origin: &[L::F32; 3],
+    shear: &[L::F32; 3],
+) -> [L::F32; 3] {
+    let a = [
+        l.load(&v[kx][first..]) - origin[0],
+        l.load(&v[ky][first..]) - origin[1],
+        l.load(&v[kz][first..]) - origin[2],
+    ];
+    shear_vertex(a, shear)
+}
+
+/// The watertight verdict, per lane, on the sheared vertices `a, b, c` (the tail of
+/// [`WatertightRay::intersect`], lane for lane): edge functions, the `f64` ones in lanes of
+/// `lanes` where one is exactly zero, one sign and `det != 0`, `tmin <= t <= tmax`; only lanes
+/// of `lanes` may hit.
+#[inline(always)]
+fn sheared_hits<L: Lanes>(
+    l: L,
+    [a, b, c]: [[L::F32; 3]; 3],
+    lanes: L::Mask,
+    (tmin, tmax): (L::F32, L::F32),
+) -> LaneHits<L> {
+    let zero = l.splat(0.0);
+    let mut e = edge_functions(&a, &b, &c);
+    let on_edge = (e[0].eq(zero) | e[1].eq(zero) | e[2].eq(zero)) & lanes;
+    if on_edge.any() {
+        e = edge_functions_f64_lanes(l, on_edge, [&a, &b, &c], e);
+    }
+    let [eu, ev, ew] = e;
+    let nonneg = eu.ge(zero) & ev.ge(zero) & ew.ge(zero);
+    let nonpos = eu.le(zero) & ev.le(zero) & ew.le(zero);
+    let det = eu + ev + ew;
+    let rcp = l.splat(1.0) / det;
+    let t = dot3(e, [a[2], b[2], c[2]]) * rcp;
+    let mask = (nonneg | nonpos).and_not(det.eq(zero)) & t.ge(tmin) & t.le(tmax) & lanes;
+    LaneHits {
+        mask,
+        t,
+        u: ev * rcp,
+        v: ew * rcp,
     }
 }
 

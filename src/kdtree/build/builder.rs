@@ -3,7 +3,7 @@
 use std::time::Instant;
 
 use kdbeam_kernels::lanes::Dispatch;
-use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle};
+use kdbeam_kernels::{Aabb, Isa, Triangle, TriangleBlock};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
@@ -48,7 +48,7 @@ impl KdTree {
     /// ```
     pub fn build(mesh: &Mesh, params: &BuildParams) -> Result<KdTree> {
         let mut tree = KdTree::empty();
-        KdTreeBuilder::new().build_into(&mut tree, mesh, params, true)?;
+        KdTreeBuilder::new().build_into(&mut tree, mesh, params)?;
         Ok(tree)
     }
 
@@ -57,9 +57,7 @@ impl KdTree {
         KdTree {
             nodes: Vec::new(),
             leaves: Vec::new(),
-            triangles: Vec::new(),
-            ks_triangles: Vec::new(),
-            ids: Vec::new(),
+            blocks: Vec::new(),
             bounds: Aabb::EMPTY,
             mesh_triangles: 0,
             stats: BuildStats::default(),
@@ -159,19 +157,11 @@ impl KdTreeBuilder {
     /// # Errors
     /// As [`KdTree::build`]; `tree` is then left as it was.
     pub fn rebuild(&mut self, tree: &mut KdTree, mesh: &Mesh, params: &BuildParams) -> Result<()> {
-        self.build_into(tree, mesh, params, false)
+        self.build_into(tree, mesh, params)
     }
 
-    /// [`KdTreeBuilder::rebuild`]; when `hand_over_stack` (the builder is dropped next), the
-    /// tree's Kensler–Shirley triangles may take the builder's reference stack as their memory
-    /// ([`Scratch::hand_over_stack`]) if theirs is too small.
-    fn build_into(
-        &mut self,
-        tree: &mut KdTree,
-        mesh: &Mesh,
-        params: &BuildParams,
-        hand_over_stack: bool,
-    ) -> Result<()> {
+    /// [`KdTreeBuilder::rebuild`].
+    fn build_into(&mut self, tree: &mut KdTree, mesh: &Mesh, params: &BuildParams) -> Result<()> {
         params.validate()?;
         let started = Instant::now();
         let n = mesh.triangle_count();
@@ -210,30 +200,26 @@ impl KdTreeBuilder {
         let bounds = root.cell;
         build_subtree(&context, root, 0, scratch, layout)?;
 
-        let max_depth = layout.finish_into(&mut tree.nodes, &mut tree.leaves, &mut tree.ids);
-        tree.triangles.clear();
-        tree.triangles
-            .extend(tree.ids.iter().map(|&id| mesh_triangles[id as usize]));
-        if hand_over_stack && tree.ks_triangles.capacity() < tree.ids.len() {
-            scratch.hand_over_stack(&mut tree.ks_triangles, tree.ids.len());
-        }
-        tree.ks_triangles.clear();
-        tree.ks_triangles
-            .extend(tree.triangles.iter().map(KsTriangle::from));
+        let (max_depth, refs) = layout.finish_into(
+            &mut tree.nodes,
+            &mut tree.leaves,
+            &mut tree.blocks,
+            mesh_triangles,
+        );
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         let build_time = started.elapsed();
-        let (nodes, leaves, ids) = (&tree.nodes, &tree.leaves, &tree.ids);
+        let (nodes, leaves, blocks) = (&tree.nodes, &tree.leaves, &tree.blocks);
         tree.stats = BuildStats {
             triangles: n,
             nodes: nodes.len(),
             leaves: count_leaves(nodes, parallel),
             nonempty_leaves: leaves.len() - 1,
-            triangle_refs: ids.len(),
+            triangle_refs: refs,
             max_depth,
             bytes: nodes.len() * size_of::<Node>()
                 + leaves.len() * size_of::<LeafRecord>()
-                + ids.len() * (size_of::<Triangle>() + size_of::<KsTriangle>() + size_of::<u32>()),
+                + blocks.len() * size_of::<TriangleBlock>(),
             build_time,
         };
         Ok(())

@@ -1,12 +1,8 @@
-//! The builder against itself: rebuilds, the stack's hand-over, every search and ISA, threads.
+//! The builder against itself: rebuilds, every search and ISA, threads.
 
-use bytemuck::Zeroable;
-use kdbeam_kernels::{Isa, KsTriangle};
+use kdbeam_kernels::Isa;
 
 use super::classify::sides_of;
-use super::stack::{reserve_stack, REFS_PER_KS_PAIR};
-use super::Scratch;
-use crate::kdtree::refs::Ref;
 use crate::kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
 use crate::Mesh;
 
@@ -31,11 +27,7 @@ fn soup(n: usize, seed: u64) -> Mesh {
 }
 
 fn same_tree(a: &KdTree, b: &KdTree) -> bool {
-    a.nodes == b.nodes
-        && a.leaves == b.leaves
-        && a.ids == b.ids
-        && a.triangles == b.triangles
-        && a.ks_triangles == b.ks_triangles
+    a.nodes == b.nodes && a.leaves == b.leaves && a.blocks == b.blocks
 }
 
 /// The stats but for the build time.
@@ -89,37 +81,6 @@ fn rebuilding_into_an_old_tree_gives_the_fresh_build() {
     };
     assert!(builder.rebuild(&mut tree, &big, &bad).is_err());
     assert!(same_tree(&tree, &before) && tree.bounds == before.bounds);
-}
-
-#[test]
-fn a_dropped_builders_stack_becomes_the_trees_triangles_memory() {
-    let mut scratch = Scratch::default();
-    reserve_stack(&mut scratch.refs, 1000);
-    scratch.refs.resize(10, Ref::zeroed());
-    let (stack, capacity) = (scratch.refs.as_ptr() as usize, scratch.refs.capacity());
-    assert!(capacity >= 1000 && capacity.is_multiple_of(REFS_PER_KS_PAIR));
-    let mut ks = vec![KsTriangle::zeroed(); 4];
-    let theirs = ks.as_ptr() as usize;
-    // More triangles than the stack holds: it is kept.
-    scratch.hand_over_stack(&mut ks, capacity);
-    assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 4));
-    assert_eq!(scratch.refs.as_ptr() as usize, stack);
-    scratch.hand_over_stack(&mut ks, 600);
-    assert_eq!((ks.as_ptr() as usize, ks.len()), (stack, 0));
-    assert_eq!(ks.capacity(), capacity / REFS_PER_KS_PAIR * 2);
-    assert_eq!(scratch.refs.as_ptr() as usize, theirs);
-    assert_eq!((scratch.refs.len(), scratch.refs.capacity()), (0, 6));
-    // A tree's odd capacity cannot hold whole references: the stack is then new.
-    let mut ks = Vec::with_capacity(3);
-    ks.push(KsTriangle::zeroed());
-    scratch.hand_over_stack(&mut ks, 4);
-    assert_eq!((ks.as_ptr() as usize, ks.len()), (theirs, 0));
-    assert_eq!(scratch.refs.capacity(), 0);
-    // A tree built by `KdTree::build` is the one a kept builder builds.
-    let mesh = soup(2000, 5);
-    let params = BuildParams::default();
-    let kept = KdTreeBuilder::new().build(&mesh, &params).unwrap();
-    assert!(same_tree(&KdTree::build(&mesh, &params).unwrap(), &kept));
 }
 
 #[test]

@@ -144,7 +144,7 @@ fn test_group<L: Lanes, T: LaneTest<L>>(
         if found.none() {
             continue;
         }
-        let id = leaf.ids[i];
+        let id = leaf.id(i);
         let mut better = (found & h.t.lt(best_t)).bits();
         let ties = (found & h.t.eq(best_t)).bits();
         if ties != 0 {

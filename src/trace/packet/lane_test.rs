@@ -59,7 +59,7 @@ impl<L: Lanes> LaneTest<L> for KsLanes {
         (tmin, tmax): (L::F32, L::F32),
         inside: bool,
     ) -> LaneHits<L> {
-        let h = kensler_shirley::intersect_lanes(l, rays, &leaf.ks[i], tmin, tmax);
+        let h = kensler_shirley::intersect_lanes(l, rays, &leaf.ks(i), tmin, tmax);
         if inside {
             // Reshetov (after Dmitriev et al.): all four corner rays hit the triangle, so every
             // ray does; only the distance decides. The barycentrics the kernel computed are
@@ -94,6 +94,6 @@ impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
         (tmin, tmax): (L::F32, L::F32),
         _: bool,
     ) -> LaneHits<L> {
-        prepared.intersect(l, &leaf.triangles[i], tmin, tmax)
+        prepared.intersect(l, &leaf.triangle(i), tmin, tmax)
     }
 }

@@ -2,7 +2,8 @@
 //! triangles that survive the leaf's beam.
 
 use kdbeam_kernels::beam::{Beam, Survivors};
-use kdbeam_kernels::{Aabb, Lanes, RayPacket};
+use kdbeam_kernels::triangle::BLOCK;
+use kdbeam_kernels::{Aabb, Lanes, RayPacket, TriangleBlock};
 
 use super::{Column, PacketCounters, Stamp};
 use crate::kdtree::LeafTriangles;
@@ -51,7 +52,7 @@ pub(super) fn visit_leaf<L: Lanes, V: PacketVisitor<L>>(
     counters.leaf_visits += 1;
     let rays = u64::from(visit.mask.count_ones());
     counters.ray_leaf_visits += rays;
-    counters.potential_tests += rays * visit.triangles.ids.len() as u64;
+    counters.potential_tests += rays * visit.triangles.len() as u64;
     #[cfg(feature = "stats")]
     {
         counters.active_rays[rays as usize] += 1;
@@ -75,7 +76,7 @@ pub(super) fn leaf_beam<L: Lanes>(
 ) -> Option<Beam<L>> {
     let start = Stamp::now();
     let beam = culling
-        .beam_rays(visit.triangles.ids.len(), visit.mask, visit.packet_mask)
+        .beam_rays(visit.triangles.len(), visit.mask, visit.packet_mask)
         .and_then(|used| {
             Beam::new(
                 l,
@@ -91,12 +92,12 @@ pub(super) fn leaf_beam<L: Lanes>(
     beam
 }
 
-/// The blocks of up to 64 triangles of a leaf that hold triangles to test, culled by a beam
-/// when there is one: `(first triangle, survivors)`. An iterator rather than a callback, so
+/// The blocks of up to [`BLOCK`] triangles of a leaf that hold triangles to test, culled by a
+/// beam when there is one: `(first triangle, survivors)`. An iterator rather than a callback, so
 /// that everything stays inlined into the ISA's `#[target_feature]` entry point.
 pub(super) struct SurvivorBlocks<'v, L: Lanes> {
     beam: Option<Beam<L>>,
-    triangles: &'v [kdbeam_kernels::Triangle],
+    triangles: LeafTriangles<'v>,
     next: usize,
     rays: u64,
     /// Tests the survivors cost (active rays × triangles).
@@ -117,7 +118,7 @@ impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
         counters.beams += u64::from(beam.is_some());
         SurvivorBlocks {
             beam,
-            triangles: visit.triangles.triangles,
+            triangles: visit.triangles,
             next: 0,
             rays: u64::from(visit.mask.count_ones()),
             tests: 0,
@@ -148,23 +149,20 @@ impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
     fn next(&mut self) -> Option<(usize, Survivors)> {
         while self.next < self.triangles.len() {
             let first = self.next;
-            let end = (first + 64).min(self.triangles.len());
-            self.next = end;
+            let count = (self.triangles.len() - first).min(BLOCK);
+            self.next = first + BLOCK;
+            let block = &self.triangles.blocks[first / BLOCK];
             let s = match &mut self.beam {
                 Some(beam) => {
                     let start = Stamp::now();
-                    let s = beam.cull(&self.triangles[first..end]);
+                    let s = beam.cull(block, count);
                     start.add_to(&mut self.cull_cycles);
                     s
                 }
-                None => {
-                    let n = end - first;
-                    let all = if n == 64 { u64::MAX } else { (1 << n) - 1 };
-                    Survivors {
-                        mask: all,
-                        ..Survivors::default()
-                    }
-                }
+                None => Survivors {
+                    mask: u64::from(TriangleBlock::valid_bits(count)),
+                    ..Survivors::default()
+                },
             };
             #[cfg(feature = "stats")]
             {
