@@ -211,9 +211,9 @@ fn best_culled_vs_unculled(points: &[&Point]) -> Option<String> {
     ))
 }
 
-/// How many times fewer nodes than the best unculled tree Reshetov measures the culled speed at
-/// (RT07, the Thai statue of Fig. 9: the culled tracer lost 30% at 60× fewer nodes, the unculled
-/// one 75%).
+/// How many times fewer nodes than the best unculled tree the culled speed is reported at: the
+/// tree sizes of Reshetov's Thai statue (RT07, Fig. 9), where culling keeps most of the speed
+/// that the unculled tracer loses in small trees.
 const SMALLER_TREES: [f64; 3] = [10.0, 20.0, 60.0];
 
 /// For each factor k of `factors`: the speed of each culling's trees at k times fewer nodes than
