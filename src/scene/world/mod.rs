@@ -56,6 +56,7 @@ mod transform;
 use std::sync::Arc;
 
 use glam::Affine3A;
+use kdbeam_kernels::Dispatch;
 
 use crate::kdtree::{BuildParams, KdTree};
 use crate::scene::Mesh;
@@ -83,6 +84,9 @@ pub struct Scene {
     instances: Slots<Instance>,
     params: BuildParams,
     intersector: Intersector,
+    /// The ISA of packets inside instances, resolved once, when the scene is made (as
+    /// [`crate::Tracer::new`] resolves its own).
+    dispatch: Dispatch,
     /// Something changed since the last commit.
     changed: bool,
     committed: Option<Committed>,
@@ -124,6 +128,7 @@ impl Scene {
             instances: Slots::new("instance"),
             params: BuildParams::default(),
             intersector: Intersector::default(),
+            dispatch: Dispatch::preferred(),
             changed: true,
             committed: None,
         }

@@ -108,6 +108,7 @@ impl Scene {
                 }
                 let tree = &c.blas[e.blas as usize].tree;
                 Tracer::new(tree)
+                    .with_dispatch(self.dispatch)
                     .with_intersector(self.intersector)
                     .intersect_packet(&object, m, &mut found);
                 let mut rest = m;
