@@ -8,6 +8,7 @@ use kdbeam::rays::random_rays;
 use kdbeam::scene::procedural::{icosphere, quad_grid, triangle_soup};
 use kdbeam::scene::rng::Rng;
 use kdbeam::scene::world::{Query, SceneHit};
+use kdbeam::Isa;
 use kdbeam::{
     Aabb, Error, GeometryId, InstanceId, Intersector, Mesh, Ray, RayPacket, Scene, Triangle, Vec3,
 };
@@ -357,6 +358,50 @@ fn filtered_closest_hit_is_the_closest_accepted_hit_in_one_tree() {
             let all = kdbeam::trace::filtered::closest_hit(&tree, intersector, &ray, |_| true);
             let tracer = kdbeam::Tracer::new(&tree).with_intersector(intersector);
             assert_eq!(all, tracer.intersect(&ray));
+        }
+    }
+}
+
+#[test]
+fn every_isa_gives_the_scalar_hits_bit_for_bit_with_and_without_a_filter() {
+    // The scalar ISA is the reference the brute-force tests above check (on the preferred ISA
+    // they check too); every other ISA must then give its hits exactly, filter or not.
+    let (mut scene, as_is, instances) = build_scene(5);
+    let tris = world_triangles(&scene, &as_is, &instances);
+    let mut rays = rays(&tris, 1500, 9);
+    rays[7].direction = Vec3::new(f32::NAN, 0.0, 1.0);
+    let filter = |h: &SceneHit| !rejected(h.geometry, h.instance, h.triangle);
+    let queries = [
+        Query::default(),
+        Query {
+            mask: u32::MAX,
+            filter: Some(&filter),
+        },
+    ];
+    for intersector in Intersector::ALL {
+        scene.set_intersector(intersector);
+        scene.set_isa(Isa::Scalar).unwrap();
+        let reference: Vec<Vec<(SceneHit, bool)>> = queries
+            .iter()
+            .map(|q| {
+                rays.iter()
+                    .map(|r| (scene.intersect_with(r, q), scene.occluded_with(r, q)))
+                    .collect()
+            })
+            .collect();
+        for isa in Isa::available() {
+            scene.set_isa(isa).unwrap();
+            assert_eq!(scene.isa(), isa);
+            for (q, expected) in queries.iter().zip(&reference) {
+                for (r, &(hit, occluded)) in rays.iter().zip(expected) {
+                    assert_eq!(
+                        scene.intersect_with(r, q),
+                        hit,
+                        "{isa:?} {intersector:?} {r:?}"
+                    );
+                    assert_eq!(scene.occluded_with(r, q), occluded, "{isa:?} {r:?}");
+                }
+            }
         }
     }
 }

@@ -1,17 +1,16 @@
-//! Single rays whose hits a caller may reject: the scalar traversal with a hit filter, for
-//! alpha-tested geometry and for scenes of many trees.
+//! Single rays whose hits a caller may reject, for alpha-tested geometry: the scalar reference
+//! traversal with a hit filter.
 //!
 //! A rejected hit never shortens the ray: only accepted hits bound the rest of the traversal,
-//! so no hit behind a rejected one is lost.
+//! so no hit behind a rejected one is lost. These run on scalar lanes, the reference; the
+//! same traversal on the widest ISA, bit for bit the same hits, is what
+//! [`crate::scene::world::Scene`] runs with its [`Query`](crate::scene::world::Query)'s filter.
 
-use kdbeam_kernels::intersect::watertight::WatertightRay;
-use kdbeam_kernels::lanes::Scalar;
-use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{Hit, LaneF32, LaneMask, Ray};
+use kdbeam_kernels::lanes::Dispatch;
+use kdbeam_kernels::{Hit, Ray};
 
-use super::single::{traverse, BlockTest, KsTest, LeafVisitor, WatertightTest};
-use super::Intersector;
-use crate::kdtree::{KdTree, LeafTriangles};
+use super::{single_ray, Intersector};
+use crate::kdtree::KdTree;
 
 /// The closest hit of `ray` in `tree` that `accept` accepts; [`Hit::NONE`] when there is none
 /// or the ray cannot be traced (see [`super::is_traceable`]).
@@ -42,12 +41,7 @@ pub fn closest_hit(
     ray: &Ray,
     accept: impl FnMut(&Hit) -> bool,
 ) -> Hit {
-    match intersector {
-        Intersector::KenslerShirley => closest_with(tree, ray, &KsTest, accept),
-        Intersector::Watertight => {
-            closest_with(tree, ray, &WatertightTest(WatertightRay::new(ray)), accept)
-        }
-    }
+    single_ray::<false>(Dispatch::SCALAR, tree, intersector, ray, accept).1
 }
 
 /// Whether `ray` hits anything in `tree` in `[ray.tmin, ray.tmax]` that `accept` accepts;
@@ -60,108 +54,5 @@ pub fn any_hit(
     ray: &Ray,
     accept: impl FnMut(&Hit) -> bool,
 ) -> bool {
-    match intersector {
-        Intersector::KenslerShirley => any_with(tree, ray, &KsTest, accept),
-        Intersector::Watertight => {
-            any_with(tree, ray, &WatertightTest(WatertightRay::new(ray)), accept)
-        }
-    }
-}
-
-/// The hit of `ray` on triangle `i` of `leaf` in `[ray.tmin, tmax]`, by the scalar reference
-/// (one lane of the block test).
-#[inline(always)]
-fn scalar_test(
-    test: &impl BlockTest,
-    ray: &Ray,
-    leaf: &LeafTriangles<'_>,
-    i: usize,
-    tmax: f32,
-) -> Option<Hit> {
-    let (block, first) = (&leaf.blocks[i / BLOCK], i % BLOCK);
-    let h = test.test(Scalar, ray, (block, first, 1), tmax);
-    h.mask.any().then(|| Hit {
-        t: h.t.extract(0),
-        u: h.u.extract(0),
-        v: h.v.extract(0),
-        triangle: block.ids[first],
-    })
-}
-
-fn closest_with<T: BlockTest, F: FnMut(&Hit) -> bool>(
-    tree: &KdTree,
-    ray: &Ray,
-    test: &T,
-    accept: F,
-) -> Hit {
-    struct Closest<'a, T, F> {
-        ray: &'a Ray,
-        test: &'a T,
-        accept: F,
-        hit: Hit,
-    }
-    impl<T: BlockTest, F: FnMut(&Hit) -> bool> LeafVisitor for Closest<'_, T, F> {
-        #[inline(always)]
-        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
-            for i in 0..leaf.len() {
-                let tmax = if self.hit.is_hit() {
-                    self.hit.t
-                } else {
-                    self.ray.tmax
-                };
-                if let Some(candidate) = scalar_test(self.test, self.ray, &leaf, i, tmax) {
-                    if self.hit.is_beaten_by(candidate.t, candidate.triangle)
-                        && (self.accept)(&candidate)
-                    {
-                        self.hit = candidate;
-                    }
-                }
-            }
-            Some(self.hit.t)
-        }
-    }
-    let mut v = Closest {
-        ray,
-        test,
-        accept,
-        hit: Hit::NONE,
-    };
-    traverse(tree, ray, &mut v);
-    v.hit
-}
-
-fn any_with<T: BlockTest, F: FnMut(&Hit) -> bool>(
-    tree: &KdTree,
-    ray: &Ray,
-    test: &T,
-    accept: F,
-) -> bool {
-    struct Any<'a, T, F> {
-        ray: &'a Ray,
-        test: &'a T,
-        accept: F,
-        found: bool,
-    }
-    impl<T: BlockTest, F: FnMut(&Hit) -> bool> LeafVisitor for Any<'_, T, F> {
-        #[inline(always)]
-        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
-            for i in 0..leaf.len() {
-                if let Some(hit) = scalar_test(self.test, self.ray, &leaf, i, self.ray.tmax) {
-                    if (self.accept)(&hit) {
-                        self.found = true;
-                        return None;
-                    }
-                }
-            }
-            Some(f32::INFINITY)
-        }
-    }
-    let mut v = Any {
-        ray,
-        test,
-        accept,
-        found: false,
-    };
-    traverse(tree, ray, &mut v);
-    v.found
+    single_ray::<true>(Dispatch::SCALAR, tree, intersector, ray, accept).0
 }

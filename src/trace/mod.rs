@@ -202,19 +202,7 @@ impl<'t> Tracer<'t> {
     /// One ray on this tracer's ISA: `ANY` for an any-hit query.
     #[inline]
     fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
-        let tree = self.tree;
-        match self.intersector {
-            Intersector::KenslerShirley => self.dispatch.run(single::SingleRay::<_, ANY> {
-                tree,
-                ray,
-                test: KsTest,
-            }),
-            Intersector::Watertight => self.dispatch.run(single::SingleRay::<_, ANY> {
-                tree,
-                ray,
-                test: WatertightTest(WatertightRay::new(ray)),
-            }),
-        }
+        single_ray::<ANY>(self.dispatch, self.tree, self.intersector, ray, |_| true)
     }
 
     /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.
@@ -364,6 +352,34 @@ impl<'t> Tracer<'t> {
             };
             self.dispatch.run(task)
         })
+    }
+}
+
+/// One ray through `tree` with `intersector` on `dispatch`'s ISA, counting only hits `accept`
+/// accepts: with `ANY`, whether there is one in `[tmin, tmax]` (the hit then [`Hit::NONE`]);
+/// otherwise the closest, bit for bit the same on every ISA. The one single-ray entry point of
+/// [`Tracer`], [`filtered`] and [`crate::scene::world::Scene`].
+#[inline]
+pub(crate) fn single_ray<const ANY: bool>(
+    dispatch: Dispatch,
+    tree: &KdTree,
+    intersector: Intersector,
+    ray: &Ray,
+    accept: impl FnMut(&Hit) -> bool,
+) -> (bool, Hit, RayCounters) {
+    match intersector {
+        Intersector::KenslerShirley => dispatch.run(single::SingleRay::<_, _, ANY> {
+            tree,
+            ray,
+            test: KsTest,
+            accept,
+        }),
+        Intersector::Watertight => dispatch.run(single::SingleRay::<_, _, ANY> {
+            tree,
+            ray,
+            test: WatertightTest(WatertightRay::new(ray)),
+            accept,
+        }),
     }
 }
 

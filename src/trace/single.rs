@@ -223,27 +223,31 @@ fn lane_vectors<'a, L: Lanes>(
     })
 }
 
-/// The closest hit of `ray` (the tie rule of [`Hit::is_beaten_by`]) and the work it took, one
-/// ray against `WIDTH` triangles per test. With [`Scalar`](kdbeam_kernels::lanes::Scalar)
-/// lanes this is the scalar reference; every width finds the same hit, bit for bit: each lane
-/// computes what the scalar test does, and the lanes' hits are taken in leaf order through
-/// `is_beaten_by` (a hit the scalar loop would have rejected by its shrinking `tmax` lies
-/// beyond the best so far, so `is_beaten_by` rejects it too).
+/// The closest hit of `ray` that `accept` accepts (the tie rule of [`Hit::is_beaten_by`]) and
+/// the work it took, one ray against `WIDTH` triangles per test. With
+/// [`Scalar`](kdbeam_kernels::lanes::Scalar) lanes this is the scalar reference; every width
+/// finds the same hit, bit for bit: each lane computes what the scalar test does, and the
+/// lanes' hits are taken in leaf order through `is_beaten_by` (a hit the scalar loop would have
+/// rejected by its shrinking `tmax` lies beyond the best so far, so `is_beaten_by` rejects it
+/// too). `accept` sees exactly the candidates that beat the closest accepted hit so far, so it
+/// is asked the same questions on every width; a rejected hit never shortens the ray.
 #[inline(always)]
 pub(crate) fn closest_hit<L: Lanes>(
     l: L,
     tree: &KdTree,
     ray: &Ray,
     test: &impl BlockTest,
+    accept: impl FnMut(&Hit) -> bool,
 ) -> (Hit, RayCounters) {
-    struct Closest<'a, L, T> {
+    struct Closest<'a, L, T, A> {
         l: L,
         ray: &'a Ray,
         test: &'a T,
+        accept: A,
         hit: Hit,
         counters: RayCounters,
     }
-    impl<L: Lanes, T: BlockTest> LeafVisitor for Closest<'_, L, T> {
+    impl<L: Lanes, T: BlockTest, A: FnMut(&Hit) -> bool> LeafVisitor for Closest<'_, L, T, A> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
             self.counters.leaves += 1;
@@ -266,12 +270,15 @@ pub(crate) fn closest_hit<L: Lanes>(
                     lanes &= lanes - 1;
                     let (t, id) = (h.t.extract(lane), block.ids[first + lane]);
                     if self.hit.is_beaten_by(t, id) {
-                        self.hit = Hit {
+                        let candidate = Hit {
                             t,
                             u: h.u.extract(lane),
                             v: h.v.extract(lane),
                             triangle: id,
                         };
+                        if (self.accept)(&candidate) {
+                            self.hit = candidate;
+                        }
                     }
                 }
             }
@@ -282,6 +289,7 @@ pub(crate) fn closest_hit<L: Lanes>(
         l,
         ray,
         test,
+        accept,
         hit: Hit::NONE,
         counters: RayCounters::default(),
     };
@@ -289,23 +297,26 @@ pub(crate) fn closest_hit<L: Lanes>(
     (v.hit, v.counters)
 }
 
-/// Whether anything is hit in `[ray.tmin, ray.tmax]`, stopping after the first vector of
-/// triangles with a hit.
+/// Whether anything that `accept` accepts is hit in `[ray.tmin, ray.tmax]`, stopping at the
+/// first accepted hit. Until then `accept` sees the hits in no particular order (a triangle in
+/// several leaves possibly more than once).
 #[inline(always)]
 pub(crate) fn any_hit<L: Lanes>(
     l: L,
     tree: &KdTree,
     ray: &Ray,
     test: &impl BlockTest,
+    accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, RayCounters) {
-    struct Any<'a, L, T> {
+    struct Any<'a, L, T, A> {
         l: L,
         ray: &'a Ray,
         test: &'a T,
+        accept: A,
         found: bool,
         counters: RayCounters,
     }
-    impl<L: Lanes, T: BlockTest> LeafVisitor for Any<'_, L, T> {
+    impl<L: Lanes, T: BlockTest, A: FnMut(&Hit) -> bool> LeafVisitor for Any<'_, L, T, A> {
         #[inline(always)]
         fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
             self.counters.leaves += 1;
@@ -316,9 +327,20 @@ pub(crate) fn any_hit<L: Lanes>(
                 let h = self
                     .test
                     .test(self.l, self.ray, (block, first, valid), self.ray.tmax);
-                if h.mask.any() {
-                    self.found = true;
-                    return None;
+                let mut lanes = h.mask.bits();
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    let hit = Hit {
+                        t: h.t.extract(lane),
+                        u: h.u.extract(lane),
+                        v: h.v.extract(lane),
+                        triangle: block.ids[first + lane],
+                    };
+                    if (self.accept)(&hit) {
+                        self.found = true;
+                        return None;
+                    }
                 }
             }
             Some(f32::INFINITY)
@@ -328,6 +350,7 @@ pub(crate) fn any_hit<L: Lanes>(
         l,
         ray,
         test,
+        accept,
         found: false,
         counters: RayCounters::default(),
     };
@@ -336,23 +359,24 @@ pub(crate) fn any_hit<L: Lanes>(
 }
 
 /// A single-ray query as a task generic over the lanes: `ANY` for [`any_hit`] (the hit is then
-/// [`Hit::NONE`] or any hit's), else [`closest_hit`].
-pub(crate) struct SingleRay<'a, T, const ANY: bool> {
+/// [`Hit::NONE`]), else [`closest_hit`]; only hits `accept` accepts count.
+pub(crate) struct SingleRay<'a, T, A, const ANY: bool> {
     pub tree: &'a KdTree,
     pub ray: &'a Ray,
     pub test: T,
+    pub accept: A,
 }
 
-impl<T: BlockTest, const ANY: bool> LaneTask for SingleRay<'_, T, ANY> {
+impl<T: BlockTest, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask for SingleRay<'_, T, A, ANY> {
     type Output = (bool, Hit, RayCounters);
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> (bool, Hit, RayCounters) {
         if ANY {
-            let (found, counters) = any_hit(l, self.tree, self.ray, &self.test);
+            let (found, counters) = any_hit(l, self.tree, self.ray, &self.test, self.accept);
             (found, Hit::NONE, counters)
         } else {
-            let (hit, counters) = closest_hit(l, self.tree, self.ray, &self.test);
+            let (hit, counters) = closest_hit(l, self.tree, self.ray, &self.test, self.accept);
             (hit.is_hit(), hit, counters)
         }
     }

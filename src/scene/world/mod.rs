@@ -8,8 +8,8 @@
 //! the world ray's parameter. A packet ([`Scene::intersect_packet`]) enters an instance as one
 //! packet carried to the mesh's space, so the beam works in the instance's kd-tree leaves.
 //!
-//! This room sits above [`crate::trace`]: it builds on [`crate::KdTree`] and
-//! [`crate::trace::filtered`], and nothing below imports it.
+//! This room sits above [`crate::trace`]: it builds on [`crate::KdTree`] and the tracer's
+//! single-ray and packet paths, and nothing below imports it.
 //!
 //! ```
 //! use kdbeam::scene::world::{InstanceId, Query, Scene};
@@ -56,7 +56,7 @@ mod transform;
 use std::sync::Arc;
 
 use glam::Affine3A;
-use kdbeam_kernels::Dispatch;
+use kdbeam_kernels::{Dispatch, Isa};
 
 use crate::kdtree::{BuildParams, KdTree};
 use crate::scene::Mesh;
@@ -84,8 +84,8 @@ pub struct Scene {
     instances: Slots<Instance>,
     params: BuildParams,
     intersector: Intersector,
-    /// The ISA of packets inside instances, resolved once, when the scene is made (as
-    /// [`crate::Tracer::new`] resolves its own).
+    /// The ISA of single rays and packets inside instances, resolved once, when the scene is
+    /// made (as [`crate::Tracer::new`] resolves its own), or set by [`Scene::set_isa`].
     dispatch: Dispatch,
     /// Something changed since the last commit.
     changed: bool,
@@ -143,6 +143,23 @@ impl Scene {
     /// Chooses the ray–triangle test (seen at once: it needs no rebuild).
     pub fn set_intersector(&mut self, intersector: Intersector) {
         self.intersector = intersector;
+    }
+
+    /// The ISA every query runs on: the widest this CPU runs, or the one `KDBEAM_ISA` names,
+    /// unless [`Scene::set_isa`] chose another.
+    #[must_use]
+    pub fn isa(&self) -> Isa {
+        self.dispatch.isa()
+    }
+
+    /// Runs every query on `isa` (seen at once: it needs no rebuild). Every ISA gives the same
+    /// hits, bit for bit.
+    ///
+    /// # Errors
+    /// [`crate::Error::IsaUnavailable`] when this CPU does not run it; the scene is unchanged.
+    pub fn set_isa(&mut self, isa: Isa) -> crate::Result<()> {
+        self.dispatch = Dispatch::new(isa)?;
+        Ok(())
     }
 
     /// The kd-tree build parameters.

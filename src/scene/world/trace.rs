@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::commit::{Committed, Entry};
 use super::top_level::MAX_DEPTH;
 use super::{GeometryId, InstanceId, Query, Scene, SceneHit};
-use crate::trace::{filtered, is_traceable, Intersector};
+use crate::trace::{is_traceable, single_ray};
 use crate::{Error, Result};
 
 /// Rays per task of a stream.
@@ -29,7 +29,7 @@ impl Scene {
     #[must_use]
     pub fn intersect_with(&self, ray: &Ray, query: &Query<'_>) -> SceneHit {
         match &self.committed {
-            Some(c) if is_traceable(ray) => closest(c, self.intersector, ray, query),
+            Some(c) if is_traceable(ray) => self.closest(c, ray, query),
             _ => SceneHit::NONE,
         }
     }
@@ -46,7 +46,7 @@ impl Scene {
     #[must_use]
     pub fn occluded_with(&self, ray: &Ray, query: &Query<'_>) -> bool {
         match &self.committed {
-            Some(c) if is_traceable(ray) => any(c, self.intersector, ray, query),
+            Some(c) if is_traceable(ray) => self.any(c, ray, query),
             _ => false,
         }
     }
@@ -212,36 +212,47 @@ fn walk(c: &Committed, ray: &Ray, mask: u32, mut visit: impl FnMut(&Entry, f32) 
     }
 }
 
-fn closest(c: &Committed, intersector: Intersector, ray: &Ray, query: &Query<'_>) -> SceneHit {
-    let mut best = SceneHit::NONE;
-    walk(c, ray, query.mask, |e, bound| {
-        let tree = &c.blas[e.blas as usize].tree;
-        let r = object_ray(e, ray, bound);
-        let h = match query.filter {
-            None => filtered::closest_hit(tree, intersector, &r, |_| true),
-            Some(f) => filtered::closest_hit(tree, intersector, &r, |h| f(&scene_hit(e, h))),
-        };
-        if h.is_hit() {
-            let candidate = scene_hit(e, &h);
-            if best.is_beaten_by(&candidate) {
-                best = candidate;
+impl Scene {
+    /// The closest accepted hit over the entries `ray` meets, each instance's tree traced on
+    /// the scene's ISA ([`single_ray`]: a vector of a leaf's triangles per test), the filter,
+    /// if any, asked about each candidate in its scene-level form.
+    fn closest(&self, c: &Committed, ray: &Ray, query: &Query<'_>) -> SceneHit {
+        let mut best = SceneHit::NONE;
+        walk(c, ray, query.mask, |e, bound| {
+            let tree = &c.blas[e.blas as usize].tree;
+            let r = object_ray(e, ray, bound);
+            let (_, h, _) = match query.filter {
+                None => single_ray::<false>(self.dispatch, tree, self.intersector, &r, |_| true),
+                Some(f) => single_ray::<false>(self.dispatch, tree, self.intersector, &r, |h| {
+                    f(&scene_hit(e, h))
+                }),
+            };
+            if h.is_hit() {
+                let candidate = scene_hit(e, &h);
+                if best.is_beaten_by(&candidate) {
+                    best = candidate;
+                }
             }
-        }
-        Some(best.t.min(ray.tmax))
-    });
-    best
-}
+            Some(best.t.min(ray.tmax))
+        });
+        best
+    }
 
-fn any(c: &Committed, intersector: Intersector, ray: &Ray, query: &Query<'_>) -> bool {
-    let mut found = false;
-    walk(c, ray, query.mask, |e, bound| {
-        let tree = &c.blas[e.blas as usize].tree;
-        let r = object_ray(e, ray, bound);
-        found = match query.filter {
-            None => filtered::any_hit(tree, intersector, &r, |_| true),
-            Some(f) => filtered::any_hit(tree, intersector, &r, |h| f(&scene_hit(e, h))),
-        };
-        (!found).then_some(bound)
-    });
-    found
+    /// Is there an accepted hit on any entry `ray` meets? As [`Scene::closest`], stopping at
+    /// the first.
+    fn any(&self, c: &Committed, ray: &Ray, query: &Query<'_>) -> bool {
+        let mut found = false;
+        walk(c, ray, query.mask, |e, bound| {
+            let tree = &c.blas[e.blas as usize].tree;
+            let r = object_ray(e, ray, bound);
+            (found, ..) = match query.filter {
+                None => single_ray::<true>(self.dispatch, tree, self.intersector, &r, |_| true),
+                Some(f) => single_ray::<true>(self.dispatch, tree, self.intersector, &r, |h| {
+                    f(&scene_hit(e, h))
+                }),
+            };
+            (!found).then_some(bound)
+        });
+        found
+    }
 }
