@@ -3,6 +3,11 @@
 
 use std::path::PathBuf;
 
+use kdbeam::scene::{self, procedural};
+use kdbeam::Mesh;
+
+use crate::Result;
+
 /// One shared test mesh: its short name and its file under the scenes directory.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SharedScene {
@@ -50,4 +55,20 @@ pub fn shared_scenes_dir() -> Option<PathBuf> {
 pub fn shared_scene(name: &str) -> Option<PathBuf> {
     let scene = SHARED_SCENES.iter().find(|s| s.name == name)?;
     Some(shared_scenes_dir()?.join(scene.file))
+}
+
+/// Loads the mesh `name` names: `builtin:NAME[:SIZE]` ([`procedural::builtin`]), a shared
+/// mesh's short name (see [`SHARED_SCENES`]), or a path to an `.obj` or `.obj.gz` file.
+///
+/// # Errors
+/// What [`procedural::builtin`] or [`scene::load_obj`] returns (an unknown built-in, a missing
+/// or malformed file).
+pub fn load_scene(name: &str) -> Result<Mesh> {
+    Ok(if let Some(builtin) = name.strip_prefix("builtin:") {
+        procedural::builtin(builtin)?
+    } else if let Some(path) = shared_scene(name) {
+        scene::load_obj(path)?
+    } else {
+        scene::load_obj(name)?
+    })
 }

@@ -94,10 +94,17 @@ impl<'t> Tracer<'t> {
     /// `KDBEAM_ISA` names when that is valid and available.
     #[must_use]
     pub fn new(tree: &'t KdTree) -> Self {
+        Tracer::on(tree, Dispatch::preferred())
+    }
+
+    /// A tracer with the default intersector on an ISA already resolved: no look at the CPU
+    /// or the environment, for callers that make a tracer per query (a scene's instances).
+    #[must_use]
+    pub fn on(tree: &'t KdTree, dispatch: Dispatch) -> Self {
         Tracer {
             tree,
             intersector: Intersector::default(),
-            dispatch: Dispatch::preferred(),
+            dispatch,
             packet: PacketShape::P8x8,
             culling: Culling::AUTO,
         }

@@ -4,10 +4,8 @@
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use kdbeam::scene::{self, procedural};
 use kdbeam::trace::Intersector;
 use kdbeam::{Aabb, BuildParams, Camera, KdTree, Mesh, PacketShape, Vec3};
-use kdbeam_cli::scenes::shared_scene;
 use kdbeam_cli::{Error, Result};
 
 pub(crate) mod accuracy;
@@ -95,14 +93,7 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 /// Loads `name`: `builtin:NAME`, a shared scene's short name, or a path.
 fn load_scene(name: Option<&str>) -> Result<(String, Mesh)> {
     let name = name.unwrap_or("builtin:default");
-    let mesh = if let Some(builtin) = name.strip_prefix("builtin:") {
-        procedural::builtin(builtin)?
-    } else if let Some(path) = shared_scene(name) {
-        scene::load_obj(path)?
-    } else {
-        scene::load_obj(name)?
-    };
-    Ok((name.to_string(), mesh))
+    Ok((name.to_string(), kdbeam_cli::scenes::load_scene(name)?))
 }
 
 /// Runs `f`, showing a spinner with `message` if it takes longer than a second.

@@ -208,6 +208,28 @@ impl EmbreeRays {
         Ok(())
     }
 
+    /// The top-level instance of each ray's hit (Embree's `instID[0]`: the geometry id of the
+    /// instance in the top-level scene), in the order of the rays; `u32::MAX` for a miss, an
+    /// inactive lane, a hit outside any instance, and every ray before tracing.
+    ///
+    /// # Errors
+    /// [`Error::InvalidParameter`] when `instances.len()` is not the number of rays.
+    pub fn instances(&self, instances: &mut [u32]) -> Result<()> {
+        check_outputs(instances.len(), self.len)?;
+        match &self.layout {
+            Layout::W1(p) => p.read(instances, INVALID_ID, P1::instance),
+            Layout::W4(p) => p.read(instances, INVALID_ID, P4::instance),
+            Layout::W8(p) => p.read(instances, INVALID_ID, P8::instance),
+            Layout::W16(p) => p.read(instances, INVALID_ID, P16::instance),
+            Layout::Stream(s) => {
+                for ((o, r), &active) in instances.iter_mut().zip(&s.rays).zip(&s.active) {
+                    *o = if active { r.instance(0) } else { INVALID_ID };
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Whether each ray was found occluded by [`EmbreeScene::occlude`], in the order of the
     /// rays (`false` for an inactive lane, and for every ray before tracing): Embree marks an
     /// occluded ray by setting its `tfar` to −inf.
@@ -278,7 +300,7 @@ impl<P: RayHitPacket> Packets<P> {
     /// Traces every packet (rtcOccluded when `any`, rtcIntersect otherwise), in parallel over
     /// chunks of [`CHUNK`] rays on the current rayon pool, each chunk with flush-to-zero and
     /// denormals-are-zero set, as Embree expects.
-    fn trace(&mut self, scene: &EmbreeScene, context: Context, any: bool) {
+    fn trace(&mut self, scene: &impl Committed, context: Context, any: bool) {
         let per_chunk = CHUNK / P::WIDTH;
         self.packets
             .par_chunks_mut(per_chunk)
@@ -306,7 +328,7 @@ impl<P: RayHitPacket> Packets<P> {
 impl Stream {
     /// rtcOccluded1M (when `any`) or rtcIntersect1M on chunks of [`CHUNK`] rays, in parallel
     /// on the current rayon pool, with flush-to-zero and denormals-are-zero set.
-    fn trace(&mut self, scene: &EmbreeScene, context: Context, any: bool) {
+    fn trace(&mut self, scene: &impl Committed, context: Context, any: bool) {
         let stride = std::mem::size_of::<sys::RTCRayHit>();
         self.rays.par_chunks_mut(CHUNK).for_each(|chunk| {
             with_flush_to_zero(|| {
@@ -336,24 +358,14 @@ impl EmbreeScene {
     /// reads them). Tracing rays a second time starts from the hits of the first (each ray's
     /// `tfar` is its hit): trace a fresh copy instead.
     pub fn trace(&self, rays: &mut EmbreeRays, context: Context) {
-        self.query(rays, context, false);
+        query(self, rays, context, false);
     }
 
     /// Asks whether each ray of `rays` hits anything, with rtcOccluded`width` (rtcOccluded1M
     /// for a stream) in `context` ([`EmbreeRays::occluded`] reads the answers). As with
     /// [`EmbreeScene::trace`], trace a fresh copy to trace again.
     pub fn occlude(&self, rays: &mut EmbreeRays, context: Context) {
-        self.query(rays, context, true);
-    }
-
-    fn query(&self, rays: &mut EmbreeRays, context: Context, any: bool) {
-        match &mut rays.layout {
-            Layout::W1(p) => p.trace(self, context, any),
-            Layout::W4(p) => p.trace(self, context, any),
-            Layout::W8(p) => p.trace(self, context, any),
-            Layout::W16(p) => p.trace(self, context, any),
-            Layout::Stream(s) => s.trace(self, context, any),
-        }
+        query(self, rays, context, true);
     }
 
     /// Closest hits of `rays`, written to `hits[i]` for `rays[i]`, traced with
@@ -375,6 +387,23 @@ impl EmbreeScene {
         check_outputs(hits.len(), rays.len())?;
         self.trace(&mut layout, context);
         layout.hits(hits)
+    }
+}
+
+/// A committed Embree scene, traced through `&self` from any number of threads.
+pub(super) trait Committed: Sync {
+    /// The committed scene handle.
+    fn handle(&self) -> sys::RTCScene;
+}
+
+/// Traces `rays` through `scene`: rtcOccluded when `any`, rtcIntersect otherwise.
+pub(super) fn query(scene: &impl Committed, rays: &mut EmbreeRays, context: Context, any: bool) {
+    match &mut rays.layout {
+        Layout::W1(p) => p.trace(scene, context, any),
+        Layout::W4(p) => p.trace(scene, context, any),
+        Layout::W8(p) => p.trace(scene, context, any),
+        Layout::W16(p) => p.trace(scene, context, any),
+        Layout::Stream(s) => s.trace(scene, context, any),
     }
 }
 
@@ -407,6 +436,8 @@ trait RayHitPacket: Copy + Send + Sync {
     fn set_ray(&mut self, lane: usize, ray: &Ray);
     /// The hit of a traced `lane`.
     fn hit(&self, lane: usize) -> Hit;
+    /// The top-level instance of a traced `lane`'s hit (`u32::MAX` for none).
+    fn instance(&self, lane: usize) -> u32;
     /// Was `lane` found occluded (its `tfar` set to −inf)?
     fn occluded(&self, lane: usize) -> bool;
     /// rtcIntersect`WIDTH`.
@@ -501,6 +532,11 @@ impl RayHitPacket for sys::RTCRayHit {
                 triangle: self.hit.primID,
             }
         }
+    }
+
+    #[inline]
+    fn instance(&self, _lane: usize) -> u32 {
+        self.hit.instID[0]
     }
 
     #[inline]
@@ -617,6 +653,11 @@ macro_rules! ray_hit_packet {
                         triangle: self.hit.primID[lane],
                     }
                 }
+            }
+
+            #[inline]
+            fn instance(&self, lane: usize) -> u32 {
+                self.hit.instID[0][lane]
             }
 
             #[inline]

@@ -34,7 +34,7 @@ impl BuildQuality {
         }
     }
 
-    fn to_sys(self) -> sys::RTCBuildQuality {
+    pub(super) fn to_sys(self) -> sys::RTCBuildQuality {
         match self {
             BuildQuality::Low => sys::RTCBuildQuality::LOW,
             BuildQuality::Medium => sys::RTCBuildQuality::MEDIUM,
@@ -118,13 +118,7 @@ impl EmbreeScene {
     /// [`Error::Embree`] when Embree fails to create the device or reports an error while
     /// building (out of memory, or a library without triangle support).
     pub fn with_options(mesh: &Mesh, options: &EmbreeOptions) -> Result<Self> {
-        let config = CString::new(format!("threads={}", build_threads()))
-            .expect("a formatted number holds no NUL");
-        // SAFETY: `config` is a NUL-terminated string that outlives the call.
-        let device = unsafe { sys::rtcNewDevice(config.as_ptr()) };
-        if device.is_null() {
-            return Err(Error::Embree("rtcNewDevice failed".into()));
-        }
+        let device = new_device()?;
         let mut out = EmbreeScene {
             device,
             scene: ptr::null_mut(),
@@ -160,7 +154,7 @@ impl EmbreeScene {
             sys::rtcSetSceneBuildQuality(out.scene, options.quality.to_sys());
         }
         if !mesh.is_empty() {
-            out.attach_triangles(mesh)?;
+            attach_triangles(out.device, out.scene, mesh, options.quality)?;
         }
         let uploaded = out.memory.load(Ordering::Relaxed);
         // SAFETY: `out.scene` is a live scene whose geometry is committed.
@@ -188,84 +182,15 @@ impl EmbreeScene {
         self.options
     }
 
-    /// The committed scene handle, for the queries.
-    pub(super) fn handle(&self) -> sys::RTCScene {
-        self.scene
-    }
-
-    /// Creates a triangle geometry holding a copy of `mesh` and attaches it as geometry 0.
-    fn attach_triangles(&self, mesh: &Mesh) -> Result<()> {
-        let positions: &[f32] = bytemuck::cast_slice(mesh.positions());
-        let indices: &[u32] = bytemuck::cast_slice(mesh.faces());
-        // SAFETY: `self.device` is live; a failure returns null and is checked below.
-        let geometry = unsafe { sys::rtcNewGeometry(self.device, sys::RTCGeometryType::TRIANGLE) };
-        if geometry.is_null() {
-            self.check("rtcNewGeometry")?;
-            return Err(Error::Embree("rtcNewGeometry failed".into()));
-        }
-        let filled = self
-            .fill_buffer(
-                geometry,
-                sys::RTCBufferType::VERTEX,
-                sys::RTCFormat::FLOAT3,
-                positions,
-            )
-            .and_then(|()| {
-                self.fill_buffer(
-                    geometry,
-                    sys::RTCBufferType::INDEX,
-                    sys::RTCFormat::UINT3,
-                    indices,
-                )
-            });
-        if filled.is_ok() {
-            // SAFETY: `geometry` is a live geometry with both buffers set; `self.scene` is a
-            // live scene of the same device. Attaching takes a reference of its own.
-            unsafe {
-                sys::rtcSetGeometryBuildQuality(geometry, self.options.quality.to_sys());
-                sys::rtcCommitGeometry(geometry);
-                sys::rtcAttachGeometry(self.scene, geometry);
-            }
-        }
-        // SAFETY: drops this function's reference; the scene keeps its own when attached.
-        unsafe { sys::rtcReleaseGeometry(geometry) };
-        filled?;
-        self.check("attaching the triangles")
-    }
-
-    /// Has Embree allocate slot 0 of `kind` for `data.len() / 3` items of three 4-byte
-    /// components (`format`) and copies `data` into it.
-    fn fill_buffer<T: bytemuck::Pod>(
-        &self,
-        geometry: sys::RTCGeometry,
-        kind: sys::RTCBufferType,
-        format: sys::RTCFormat,
-        data: &[T],
-    ) -> Result<()> {
-        debug_assert_eq!(std::mem::size_of::<T>(), 4);
-        let items = data.len() / 3;
-        // SAFETY: `geometry` is a live triangle geometry; a stride of 12 bytes is the packed
-        // layout of FLOAT3 and UINT3. Embree returns null on failure (checked below).
-        let buffer = unsafe { sys::rtcSetNewGeometryBuffer(geometry, kind, 0, format, 12, items) };
-        if buffer.is_null() {
-            self.check("rtcSetNewGeometryBuffer")?;
-            return Err(Error::Embree("rtcSetNewGeometryBuffer failed".into()));
-        }
-        // SAFETY: Embree allocated `items · 12` bytes at `buffer` (plus padding), aligned to at
-        // least 16 bytes, for this geometry alone; nothing else reads or writes it until the
-        // geometry is committed, and `data` is a different allocation.
-        let dst = unsafe { std::slice::from_raw_parts_mut(buffer.cast::<T>(), 3 * items) };
-        dst.copy_from_slice(&data[..3 * items]);
-        Ok(())
-    }
-
     /// [`Error::Embree`] naming `what` when the device has recorded an error.
     fn check(&self, what: &str) -> Result<()> {
-        // SAFETY: `self.device` is a live device handle.
-        match unsafe { sys::rtcGetDeviceError(self.device) } {
-            sys::RTCError::NONE => Ok(()),
-            code => Err(Error::Embree(format!("{what}: {code:?}"))),
-        }
+        check(self.device, what)
+    }
+}
+
+impl super::query::Committed for EmbreeScene {
+    fn handle(&self) -> sys::RTCScene {
+        self.scene
     }
 }
 
@@ -282,6 +207,88 @@ impl Drop for EmbreeScene {
     }
 }
 
+/// Creates a triangle geometry on `device` holding a copy of `mesh`, built at `quality`, and
+/// attaches it to `scene` (geometry 0 of a new scene).
+pub(super) fn attach_triangles(
+    device: sys::RTCDevice,
+    scene: sys::RTCScene,
+    mesh: &Mesh,
+    quality: BuildQuality,
+) -> Result<()> {
+    let positions: &[f32] = bytemuck::cast_slice(mesh.positions());
+    let indices: &[u32] = bytemuck::cast_slice(mesh.faces());
+    // SAFETY: the caller's `device` is live; a failure returns null and is checked below.
+    let geometry = unsafe { sys::rtcNewGeometry(device, sys::RTCGeometryType::TRIANGLE) };
+    if geometry.is_null() {
+        check(device, "rtcNewGeometry")?;
+        return Err(Error::Embree("rtcNewGeometry failed".into()));
+    }
+    let filled = fill_buffer(
+        device,
+        geometry,
+        sys::RTCBufferType::VERTEX,
+        sys::RTCFormat::FLOAT3,
+        positions,
+    )
+    .and_then(|()| {
+        fill_buffer(
+            device,
+            geometry,
+            sys::RTCBufferType::INDEX,
+            sys::RTCFormat::UINT3,
+            indices,
+        )
+    });
+    if filled.is_ok() {
+        // SAFETY: `geometry` is a live geometry with both buffers set; `scene` is a live scene
+        // of the same device. Attaching takes a reference of its own.
+        unsafe {
+            sys::rtcSetGeometryBuildQuality(geometry, quality.to_sys());
+            sys::rtcCommitGeometry(geometry);
+            sys::rtcAttachGeometry(scene, geometry);
+        }
+    }
+    // SAFETY: drops this function's reference; the scene keeps its own when attached.
+    unsafe { sys::rtcReleaseGeometry(geometry) };
+    filled?;
+    check(device, "attaching the triangles")
+}
+
+/// Has Embree allocate slot 0 of `kind` for `data.len() / 3` items of three 4-byte components
+/// (`format`) and copies `data` into it.
+fn fill_buffer<T: bytemuck::Pod>(
+    device: sys::RTCDevice,
+    geometry: sys::RTCGeometry,
+    kind: sys::RTCBufferType,
+    format: sys::RTCFormat,
+    data: &[T],
+) -> Result<()> {
+    debug_assert_eq!(std::mem::size_of::<T>(), 4);
+    let items = data.len() / 3;
+    // SAFETY: `geometry` is a live triangle geometry; a stride of 12 bytes is the packed layout
+    // of FLOAT3 and UINT3. Embree returns null on failure (checked below).
+    let buffer = unsafe { sys::rtcSetNewGeometryBuffer(geometry, kind, 0, format, 12, items) };
+    if buffer.is_null() {
+        check(device, "rtcSetNewGeometryBuffer")?;
+        return Err(Error::Embree("rtcSetNewGeometryBuffer failed".into()));
+    }
+    // SAFETY: Embree allocated `items · 12` bytes at `buffer` (plus padding), aligned to at
+    // least 16 bytes, for this geometry alone; nothing else reads or writes it until the
+    // geometry is committed, and `data` is a different allocation.
+    let dst = unsafe { std::slice::from_raw_parts_mut(buffer.cast::<T>(), 3 * items) };
+    dst.copy_from_slice(&data[..3 * items]);
+    Ok(())
+}
+
+/// [`Error::Embree`] naming `what` when `device` has recorded an error.
+pub(super) fn check(device: sys::RTCDevice, what: &str) -> Result<()> {
+    // SAFETY: the caller's `device` is a live device handle.
+    match unsafe { sys::rtcGetDeviceError(device) } {
+        sys::RTCError::NONE => Ok(()),
+        code => Err(Error::Embree(format!("{what}: {code:?}"))),
+    }
+}
+
 /// Embree's memory monitor: adds the `bytes` of each allocation (negative for a release) to
 /// the counter at `counter`, and lets it happen.
 ///
@@ -294,7 +301,15 @@ unsafe extern "C" fn count_memory(counter: *mut c_void, bytes: sys::ssize_t, _po
     true
 }
 
-/// Threads Embree may build with: those of the current rayon pool.
-fn build_threads() -> usize {
-    rayon::current_num_threads()
+/// A new Embree device that builds with the current rayon pool's threads, so that Embree
+/// builds on as many cores as kdbeam.
+pub(super) fn new_device() -> Result<sys::RTCDevice> {
+    let config = CString::new(format!("threads={}", rayon::current_num_threads()))
+        .expect("a formatted number holds no NUL");
+    // SAFETY: `config` is a NUL-terminated string that outlives the call.
+    let device = unsafe { sys::rtcNewDevice(config.as_ptr()) };
+    if device.is_null() {
+        return Err(Error::Embree("rtcNewDevice failed".into()));
+    }
+    Ok(device)
 }

@@ -107,8 +107,7 @@ impl Scene {
                     object.set(i, &object_ray(e, &rays[i], hits[i].t.min(rays[i].tmax)));
                 }
                 let tree = &c.blas[e.blas as usize].tree;
-                Tracer::new(tree)
-                    .with_dispatch(self.dispatch)
+                Tracer::on(tree, self.dispatch)
                     .with_intersector(self.intersector)
                     .intersect_packet(&object, m, &mut found);
                 let mut rest = m;
