@@ -28,7 +28,7 @@ use glam::{Affine3A, Quat};
 use kdbeam::scene::procedural::{terrain, terrain_height};
 use kdbeam::scene::world::{Query, SceneHit};
 use kdbeam::{Aabb, Camera, InstanceId, PacketShape, Ray, RayPacket, Scene, Vec3};
-use kdbeam_cli::render::Image;
+use kdbeam_cli::render::{parse_size, Image};
 use kdbeam_cli::scenes::{load_scene, shared_scene};
 use rayon::prelude::*;
 
@@ -65,15 +65,6 @@ struct Args {
     /// Also trace the same scene with Embree (needs `--features embree`).
     #[arg(long)]
     embree: bool,
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or("expected WIDTHxHEIGHT")?;
-    let parse = |v: &str| match v.trim().parse::<u32>() {
-        Ok(n) if (1..=8192).contains(&n) => Ok(n),
-        _ => Err(format!("{v:?} is not a size from 1 to 8192")),
-    };
-    Ok((parse(w)?, parse(h)?))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error + Send + Sync>> {

@@ -79,16 +79,7 @@ fn parse_point(s: &str) -> std::result::Result<Vec3, String> {
     }
 }
 
-fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
-    let parse = |v: &str| match v.trim().parse::<u32>() {
-        Ok(n) if (1..=16384).contains(&n) => Ok(n),
-        _ => Err(format!("{v:?} is not a size from 1 to 16384")),
-    };
-    Ok((parse(w)?, parse(h)?))
-}
+pub(crate) use kdbeam_cli::render::parse_size;
 
 /// Loads `name`: `builtin:NAME`, a shared scene's short name, or a path.
 fn load_scene(name: Option<&str>) -> Result<(String, Mesh)> {

@@ -90,3 +90,19 @@ pub fn heat_color(x: f32) -> [f32; 3] {
     let f = x - i as f32;
     core::array::from_fn(|k| STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f)
 }
+
+/// An image size `WIDTHxHEIGHT` (or `WIDTHXHEIGHT`), each side from 1 to 16384, as the
+/// commands' and examples' `--size` take it.
+///
+/// # Errors
+/// A message saying what is wrong, for the command line.
+pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!("{v:?} is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}

@@ -11,7 +11,7 @@ use kdbeam::trace::{PacketCounters, Tracer};
 use kdbeam::{Camera, Hit, HitPacket, Mesh, RayPacket};
 use rayon::prelude::*;
 
-pub use image::{heat_color, Image};
+pub use image::{heat_color, parse_size, Image};
 pub use ray_set::{RaySet, Rays, SEED};
 pub use shade::{shade, shade_lit, Light};
 
