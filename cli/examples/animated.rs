@@ -102,7 +102,7 @@ impl Walkers {
             })
             .collect();
         let size = mesh.extent().max_element().max(f32::MIN_POSITIVE);
-        let scale = 0.5 * spacing / size;
+        let scale = 0.7 * spacing / size;
         let foot = Vec3::new(mesh.center().x, mesh.min.y, mesh.center().z);
         let base = Affine3A::from_scale(Vec3::splat(scale)) * Affine3A::from_translation(-foot);
         Walkers { paths, base }
@@ -173,8 +173,8 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
 
     let (width, height) = args.size;
     let bounds = ground.bounds();
-    let eye = Vec3::new(0.0, bounds.max.y + 0.6, -0.9);
-    let target = Vec3::new(0.0, 0.0, 0.9);
+    let eye = Vec3::new(0.0, bounds.max.y + 0.2, -0.8);
+    let target = Vec3::new(0.0, 0.0, 1.1);
     let camera = Camera::look_at(eye, target, 50.0, width, height)?;
     let light = Vec3::new(-1.5, bounds.max.y + 3.0, -0.5);
     let offset = 1e-4 * bounds.extent().length();
@@ -441,7 +441,7 @@ mod side_by_side {
             let frame_s = commit_s + primary_s + shadow_s;
             println!(
                 "           embree: update {:6.3} ms  commit {:6.3} ms  primary {:7.2} ms  \
-                 shadow {:7.2} ms  {:6.1} Mrays/s  frame {:7.2} ms   kdbeam/embree frame {:.2}x",
+                 shadow {:7.2} ms  {:6.1} Mrays/s  frame {:7.2} ms   kdbeam's frame rate {:.2}x Embree's",
                 1e3 * update_s,
                 1e3 * commit_s,
                 1e3 * primary_s,
