@@ -198,6 +198,8 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     };
 
     std::fs::create_dir_all(&args.out)?;
+    // Commit and frame (commit + trace) seconds of each frame: kdbeam's, Embree's.
+    let mut times: Vec<[f64; 4]> = Vec::new();
     for frame in 0..args.frames {
         let moved = walkers.transforms(frame);
         let t = Instant::now();
@@ -222,13 +224,42 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             rays / trace_s / 1e6,
             1e3 * (commit_s + trace_s),
         );
+        #[allow(unused_mut)]
+        let mut embree_times = [f64::NAN; 2];
         #[cfg(feature = "embree")]
         if let Some(embree) = &mut embree {
-            embree.frame(&moved, &traced, commit_s + trace_s)?;
+            embree_times = embree.frame(&moved, &traced, commit_s + trace_s)?;
         }
+        times.push([
+            commit_s,
+            commit_s + trace_s,
+            embree_times[0],
+            embree_times[1],
+        ]);
 
         let image = shade(&scene, &camera, &traced, light);
         image.write_png(&args.out.join(format!("frame_{frame:04}.png")))?;
+    }
+    let median = |k: usize| {
+        let mut v: Vec<f64> = times.iter().map(|t| t[k]).collect();
+        v.sort_by(f64::total_cmp);
+        1e3 * v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+    };
+    println!(
+        "median of {} frames: kdbeam commit {:.3} ms, frame {:.2} ms",
+        times.len(),
+        median(0),
+        median(1)
+    );
+    if args.embree {
+        println!(
+            "                     embree commit {:.3} ms, frame {:.2} ms; kdbeam's commit \
+             {:.2}x Embree's time, kdbeam's frame rate {:.2}x Embree's",
+            median(2),
+            median(3),
+            median(0) / median(2),
+            median(3) / median(1)
+        );
     }
     println!("frames written to {}", args.out.display());
     Ok(())
@@ -411,13 +442,14 @@ mod side_by_side {
         }
 
         /// Moves, commits and traces one frame; prints its times beside kdbeam's and how far
-        /// the hits agree.
+        /// the hits agree. Returns the seconds of the commit and of the frame (commit and
+        /// tracing).
         pub fn frame(
             &mut self,
             moved: &[Affine3A],
             kdbeam: &Traced,
             kdbeam_frame_s: f64,
-        ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+        ) -> Result<[f64; 2], Box<dyn std::error::Error + Send + Sync>> {
             let t = Instant::now();
             for (i, m) in moved.iter().enumerate() {
                 self.scene.set_transform(i, m)?;
@@ -471,7 +503,7 @@ mod side_by_side {
                 shadow_differ,
                 blocked.len()
             );
-            Ok(())
+            Ok([commit_s, frame_s])
         }
 
         /// How many primary rays Embree and kdbeam answer differently.
