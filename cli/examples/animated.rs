@@ -224,12 +224,13 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
             rays / trace_s / 1e6,
             1e3 * (commit_s + trace_s),
         );
-        #[allow(unused_mut)]
-        let mut embree_times = [f64::NAN; 2];
         #[cfg(feature = "embree")]
-        if let Some(embree) = &mut embree {
-            embree_times = embree.frame(&moved, &traced, commit_s + trace_s)?;
-        }
+        let embree_times = match &mut embree {
+            Some(embree) => embree.frame(&moved, &traced, commit_s + trace_s)?,
+            None => [f64::NAN; 2],
+        };
+        #[cfg(not(feature = "embree"))]
+        let embree_times = [f64::NAN; 2];
         times.push([
             commit_s,
             commit_s + trace_s,

@@ -99,6 +99,17 @@ impl<'t> Tracer<'t> {
 
     /// A tracer with the default intersector on an ISA already resolved: no look at the CPU
     /// or the environment, for callers that make a tracer per query (a scene's instances).
+    ///
+    /// ```
+    /// use kdbeam::kernels::Dispatch;
+    /// use kdbeam::{BuildParams, Isa, KdTree, Mesh, Ray, Tracer, Vec3};
+    /// let mesh = Mesh::from_indexed(&[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]], &[0, 1, 2])?;
+    /// let tree = KdTree::build(&mesh, &BuildParams::default())?;
+    /// let tracer = Tracer::on(&tree, Dispatch::SCALAR);
+    /// assert_eq!(tracer.isa(), Isa::Scalar);
+    /// assert_eq!(tracer.intersect(&Ray::new(Vec3::new(0.25, 0.25, 0.0), Vec3::Z)).t, 1.0);
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
     #[must_use]
     pub fn on(tree: &'t KdTree, dispatch: Dispatch) -> Self {
         Tracer {

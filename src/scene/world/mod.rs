@@ -155,6 +155,14 @@ impl Scene {
     /// Runs every query on `isa` (seen at once: it needs no rebuild). Every ISA gives the same
     /// hits, bit for bit.
     ///
+    /// ```
+    /// use kdbeam::{Isa, Scene};
+    /// let mut scene = Scene::new();
+    /// scene.set_isa(Isa::Scalar)?;
+    /// assert_eq!(scene.isa(), Isa::Scalar);
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
+    ///
     /// # Errors
     /// [`crate::Error::IsaUnavailable`] when this CPU does not run it; the scene is unchanged.
     pub fn set_isa(&mut self, isa: Isa) -> crate::Result<()> {
