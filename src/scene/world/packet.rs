@@ -96,7 +96,12 @@ impl Scene {
                 if e.mask & query.mask == 0 {
                     continue;
                 }
-                let m = enter(&c.boxes[item as usize], mask, hits);
+                // A leaf of one item has that item's box: its rays are the node's.
+                let m = if node.count == 1 {
+                    mask
+                } else {
+                    enter(&c.boxes[item as usize], mask, hits)
+                };
                 if m == 0 {
                     continue;
                 }
