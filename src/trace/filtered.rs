@@ -9,7 +9,7 @@
 use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Hit, Ray};
 
-use super::{single_ray, Intersector};
+use super::{single_ray, Intersector, NoCull};
 use crate::kdtree::KdTree;
 
 /// The closest hit of `ray` in `tree` that `accept` accepts; [`Hit::NONE`] when there is none
@@ -41,7 +41,7 @@ pub fn closest_hit(
     ray: &Ray,
     accept: impl FnMut(&Hit) -> bool,
 ) -> Hit {
-    single_ray::<false>(Dispatch::SCALAR, tree, intersector, ray, accept).1
+    single_ray::<false>(Dispatch::SCALAR, tree, intersector, ray, NoCull, accept).1
 }
 
 /// Whether `ray` hits anything in `tree` in `[ray.tmin, ray.tmax]` that `accept` accepts;
@@ -54,5 +54,5 @@ pub fn any_hit(
     ray: &Ray,
     accept: impl FnMut(&Hit) -> bool,
 ) -> bool {
-    single_ray::<true>(Dispatch::SCALAR, tree, intersector, ray, accept).0
+    single_ray::<true>(Dispatch::SCALAR, tree, intersector, ray, NoCull, accept).0
 }

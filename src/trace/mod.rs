@@ -24,6 +24,7 @@ pub use packet::{PacketCounters, StageCycles};
 pub use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
+pub(crate) use single::{NoCull, TriangleCull};
 
 use crate::kdtree::KdTree;
 use crate::{Error, Result};
@@ -220,7 +221,14 @@ impl<'t> Tracer<'t> {
     /// One ray on this tracer's ISA: `ANY` for an any-hit query.
     #[inline]
     fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
-        single_ray::<ANY>(self.dispatch, self.tree, self.intersector, ray, |_| true)
+        single_ray::<ANY>(
+            self.dispatch,
+            self.tree,
+            self.intersector,
+            ray,
+            NoCull,
+            |_| true,
+        )
     }
 
     /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.
@@ -373,8 +381,8 @@ impl<'t> Tracer<'t> {
     }
 }
 
-/// One ray through `tree` with `intersector` on `dispatch`'s ISA, counting only hits `accept`
-/// accepts: with `ANY`, whether there is one in `[tmin, tmax]` (the hit then [`Hit::NONE`]);
+/// One ray through `tree` with `intersector` on `dispatch`'s ISA, `cull` dropping what it can,
+/// counting only hits `accept` accepts: with `ANY`, whether there is one in `[tmin, tmax]` (the hit then [`Hit::NONE`]);
 /// otherwise the closest, bit for bit the same on every ISA. The one single-ray entry point of
 /// [`Tracer`], [`filtered`] and [`crate::scene::world::Scene`].
 #[inline]
@@ -383,19 +391,22 @@ pub(crate) fn single_ray<const ANY: bool>(
     tree: &KdTree,
     intersector: Intersector,
     ray: &Ray,
+    cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, Hit, RayCounters) {
     match intersector {
-        Intersector::KenslerShirley => dispatch.run(single::SingleRay::<_, _, ANY> {
+        Intersector::KenslerShirley => dispatch.run(single::SingleRay::<_, _, _, ANY> {
             tree,
             ray,
             test: KsTest,
+            cull,
             accept,
         }),
-        Intersector::Watertight => dispatch.run(single::SingleRay::<_, _, ANY> {
+        Intersector::Watertight => dispatch.run(single::SingleRay::<_, _, _, ANY> {
             tree,
             ray,
             test: WatertightTest(WatertightRay::new(ray)),
+            cull,
             accept,
         }),
     }

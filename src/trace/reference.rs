@@ -6,8 +6,8 @@
 use kdbeam_kernels::intersect::oracle::OracleRay;
 use kdbeam_kernels::Ray;
 
-use super::single::{self, LeafVisitor};
-use crate::kdtree::{KdTree, LeafTriangles};
+use super::single::{self, LeafEntry, LeafVisitor};
+use crate::kdtree::KdTree;
 use crate::Mesh;
 
 /// The closest hit as the f64 oracle computes it.
@@ -62,7 +62,8 @@ pub fn kd_oracle(tree: &KdTree, ray: &Ray) -> Option<ReferenceHit> {
         best: Option<ReferenceHit>,
     }
     impl LeafVisitor for Oracle {
-        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
+        fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
+            let leaf = leaf.triangles;
             for i in 0..leaf.len() {
                 let id = leaf.id(i);
                 if let Some(h) = self.ray.intersect(&leaf.triangle(i), self.tmin, self.tmax) {

@@ -8,16 +8,67 @@ use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, Lane
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{slab, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock, Vec3};
 
-use crate::kdtree::{KdTree, LeafTriangles};
+use crate::kdtree::{KdTree, LeafRecord, LeafTriangles};
 
 /// Deepest stack a traversal needs: the builder caps depth at 64.
 pub(crate) const STACK_DEPTH: usize = 64;
 
+/// A non-empty leaf as a traversal enters it.
+pub(crate) struct LeafEntry<'a> {
+    /// Index of the leaf's record in [`KdTree::leaves`].
+    pub index: u32,
+    /// The leaf's record: its first block in the tree's blocks, its count and tight box.
+    pub record: &'a LeafRecord,
+    /// The leaf's triangles.
+    pub triangles: LeafTriangles<'a>,
+    /// Where the ray enters the leaf's cell (clipped to `ray.tmin`).
+    pub t_enter: f32,
+    /// Where the ray leaves the leaf's cell (clipped to `ray.tmax`).
+    pub t_exit: f32,
+}
+
 /// What a traversal does in each leaf it enters.
 pub(crate) trait LeafVisitor {
-    /// Tests `leaf`, entered over `[t_enter, t_exit]`. Returns the `t` of the closest hit so far
-    /// (`+inf` without one), or `None` to stop the traversal (an any-hit query that found one).
-    fn visit(&mut self, leaf: LeafTriangles<'_>, t_enter: f32, t_exit: f32) -> Option<f32>;
+    /// Tests `leaf`. Returns the `t` of the closest hit so far (`+inf` without one), or `None`
+    /// to stop the traversal (an any-hit query that found one).
+    fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32>;
+}
+
+/// A culling stage of single rays: it may skip a leaf the ray enters, and drop triangles of a
+/// leaf before they are tested.
+///
+/// Every stage must be conservative: a leaf it skips holds no hit of the ray in
+/// `[t_enter, t_exit]`, and a triangle it drops is not hit before `tmax`, so that the query
+/// finds the hit it finds without the stage, bit for bit.
+pub(crate) trait TriangleCull {
+    /// Called as `ray` enters `leaf`; `false` skips the leaf.
+    fn enter(&mut self, ray: &Ray, leaf: &LeafEntry<'_>) -> bool;
+    /// Of the lanes `valid` of the vector of triangles `first..first + L::WIDTH` of the tree's
+    /// block `block` (in the leaf last entered), those that may hold a hit before `tmax`.
+    fn lanes<L: Lanes>(
+        &mut self,
+        l: L,
+        ray: &Ray,
+        block: usize,
+        first: usize,
+        valid: u32,
+        tmax: f32,
+    ) -> u32;
+}
+
+/// No culling: every leaf is entered and every triangle tested.
+pub(crate) struct NoCull;
+
+impl TriangleCull for NoCull {
+    #[inline(always)]
+    fn enter(&mut self, _: &Ray, _: &LeafEntry<'_>) -> bool {
+        true
+    }
+
+    #[inline(always)]
+    fn lanes<L: Lanes>(&mut self, _: L, _: &Ray, _: usize, _: usize, valid: u32, _: f32) -> u32 {
+        valid
+    }
 }
 
 /// Can this ray be traced? Finite origin and direction, a non-zero direction and
@@ -89,9 +140,17 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
                     (false, false) => {}
                 }
             } else {
-                let leaf = &tree.leaves()[node.leaf_record() as usize];
-                if leaf.count > 0 {
-                    match visitor.visit(tree.leaf_triangles(leaf), t_enter, t_exit) {
+                let index = node.leaf_record();
+                let record = &tree.leaves()[index as usize];
+                if record.count > 0 {
+                    let leaf = LeafEntry {
+                        index,
+                        record,
+                        triangles: tree.leaf_triangles(record),
+                        t_enter,
+                        t_exit,
+                    };
+                    match visitor.visit(leaf) {
                         Some(t) => best_t = t,
                         None => return,
                     }
@@ -156,6 +215,10 @@ pub struct RayCounters {
     pub leaves: u64,
     /// Ray–triangle tests performed.
     pub tests: u64,
+    /// Leaves skipped by a culling stage (counted in `leaves` too).
+    pub leaves_culled: u64,
+    /// Ray–triangle tests a culling stage removed (not counted in `tests`).
+    pub culled: u64,
 }
 
 /// One ray against a vector of a leaf block's triangles, as the traversal sees it.
@@ -208,62 +271,76 @@ impl BlockTest for WatertightTest {
     }
 }
 
-/// The vectors of `WIDTH` triangles of `leaf` that hold real ones: `(block, first lane, valid
-/// lanes)`, in leaf order.
+/// The vectors of `WIDTH` triangles of `leaf` that hold real ones: `(block, index of the block
+/// in the tree's blocks, first lane, valid lanes)`, in leaf order.
 #[inline(always)]
 fn lane_vectors<'a, L: Lanes>(
-    leaf: &LeafTriangles<'a>,
-) -> impl Iterator<Item = (&'a TriangleBlock, usize, u32)> + 'a {
-    let (blocks, len, w) = (leaf.blocks, leaf.len(), L::WIDTH);
+    leaf: &LeafEntry<'a>,
+) -> impl Iterator<Item = (&'a TriangleBlock, usize, usize, u32)> + 'a {
+    let (blocks, len, w) = (leaf.triangles.blocks, leaf.triangles.len(), L::WIDTH);
+    let base = leaf.record.first as usize;
     let lane_bits = if w >= 32 { u32::MAX } else { (1u32 << w) - 1 };
     (0..len.div_ceil(w)).map(move |v| {
         let (b, first) = (v * w / BLOCK, v * w % BLOCK);
         let valid = TriangleBlock::valid_bits(len - b * BLOCK) >> first & lane_bits;
-        (&blocks[b], first, valid)
+        (&blocks[b], base + b, first, valid)
     })
 }
 
 /// The closest hit of `ray` that `accept` accepts (the tie rule of [`Hit::is_beaten_by`]) and
-/// the work it took, one ray against `WIDTH` triangles per test. With
-/// [`Scalar`](kdbeam_kernels::lanes::Scalar) lanes this is the scalar reference; every width
-/// finds the same hit, bit for bit: each lane computes what the scalar test does, and the
-/// lanes' hits are taken in leaf order through `is_beaten_by` (a hit the scalar loop would have
-/// rejected by its shrinking `tmax` lies beyond the best so far, so `is_beaten_by` rejects it
-/// too). `accept` sees exactly the candidates that beat the closest accepted hit so far, so it
-/// is asked the same questions on every width; a rejected hit never shortens the ray.
+/// the work it took, one ray against `WIDTH` triangles per test, after `cull` has dropped what
+/// it can. With [`Scalar`](kdbeam_kernels::lanes::Scalar) lanes this is the scalar reference;
+/// every width finds the same hit, bit for bit: each lane computes what the scalar test does,
+/// and the lanes' hits are taken in leaf order through `is_beaten_by` (a hit the scalar loop
+/// would have rejected by its shrinking `tmax` lies beyond the best so far, so `is_beaten_by`
+/// rejects it too). `accept` sees exactly the candidates that beat the closest accepted hit so
+/// far, so it is asked the same questions on every width; a rejected hit never shortens the
+/// ray, nor what `cull` is told of it.
 #[inline(always)]
 pub(crate) fn closest_hit<L: Lanes>(
     l: L,
     tree: &KdTree,
     ray: &Ray,
     test: &impl BlockTest,
+    cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (Hit, RayCounters) {
-    struct Closest<'a, L, T, A> {
+    struct Closest<'a, L, T, C, A> {
         l: L,
         ray: &'a Ray,
         test: &'a T,
+        cull: C,
         accept: A,
         hit: Hit,
         counters: RayCounters,
     }
-    impl<L: Lanes, T: BlockTest, A: FnMut(&Hit) -> bool> LeafVisitor for Closest<'_, L, T, A> {
+    impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
+        for Closest<'_, L, T, C, A>
+    {
         #[inline(always)]
-        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
+        fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
             self.counters.leaves += 1;
-            self.counters.tests += leaf.len() as u64;
+            if !self.cull.enter(self.ray, &leaf) {
+                self.counters.leaves_culled += 1;
+                self.counters.culled += leaf.triangles.len() as u64;
+                return Some(self.hit.t);
+            }
             let mut vectors = lane_vectors::<L>(&leaf);
             // `next` directly: a `for` loop may leave the forwarding `next` out of line.
             #[allow(clippy::while_let_on_iterator)]
-            while let Some((block, first, valid)) = vectors.next() {
+            while let Some((block, index, first, valid)) = vectors.next() {
                 let tmax = if self.hit.is_hit() {
                     self.hit.t
                 } else {
                     self.ray.tmax
                 };
-                let h = self
-                    .test
-                    .test(self.l, self.ray, (block, first, valid), tmax);
+                let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
+                self.counters.tests += u64::from(kept.count_ones());
+                self.counters.culled += u64::from((valid & !kept).count_ones());
+                if kept == 0 {
+                    continue;
+                }
+                let h = self.test.test(self.l, self.ray, (block, first, kept), tmax);
                 let mut lanes = h.mask.bits();
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
@@ -289,6 +366,7 @@ pub(crate) fn closest_hit<L: Lanes>(
         l,
         ray,
         test,
+        cull,
         accept,
         hit: Hit::NONE,
         counters: RayCounters::default(),
@@ -298,35 +376,49 @@ pub(crate) fn closest_hit<L: Lanes>(
 }
 
 /// Whether anything that `accept` accepts is hit in `[ray.tmin, ray.tmax]`, stopping at the
-/// first accepted hit. Until then `accept` sees the hits in no particular order (a triangle in
-/// several leaves possibly more than once).
+/// first accepted hit, after `cull` has dropped what it can (always told `ray.tmax`: an any-hit
+/// query never shortens its ray). Until then `accept` sees the hits in no particular order (a
+/// triangle in several leaves possibly more than once).
 #[inline(always)]
 pub(crate) fn any_hit<L: Lanes>(
     l: L,
     tree: &KdTree,
     ray: &Ray,
     test: &impl BlockTest,
+    cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, RayCounters) {
-    struct Any<'a, L, T, A> {
+    struct Any<'a, L, T, C, A> {
         l: L,
         ray: &'a Ray,
         test: &'a T,
+        cull: C,
         accept: A,
         found: bool,
         counters: RayCounters,
     }
-    impl<L: Lanes, T: BlockTest, A: FnMut(&Hit) -> bool> LeafVisitor for Any<'_, L, T, A> {
+    impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
+        for Any<'_, L, T, C, A>
+    {
         #[inline(always)]
-        fn visit(&mut self, leaf: LeafTriangles<'_>, _: f32, _: f32) -> Option<f32> {
+        fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
             self.counters.leaves += 1;
+            if !self.cull.enter(self.ray, &leaf) {
+                self.counters.leaves_culled += 1;
+                self.counters.culled += leaf.triangles.len() as u64;
+                return Some(f32::INFINITY);
+            }
             let mut vectors = lane_vectors::<L>(&leaf);
             #[allow(clippy::while_let_on_iterator)]
-            while let Some((block, first, valid)) = vectors.next() {
-                self.counters.tests += u64::from(valid.count_ones());
-                let h = self
-                    .test
-                    .test(self.l, self.ray, (block, first, valid), self.ray.tmax);
+            while let Some((block, index, first, valid)) = vectors.next() {
+                let tmax = self.ray.tmax;
+                let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
+                self.counters.tests += u64::from(kept.count_ones());
+                self.counters.culled += u64::from((valid & !kept).count_ones());
+                if kept == 0 {
+                    continue;
+                }
+                let h = self.test.test(self.l, self.ray, (block, first, kept), tmax);
                 let mut lanes = h.mask.bits();
                 while lanes != 0 {
                     let lane = lanes.trailing_zeros() as usize;
@@ -350,6 +442,7 @@ pub(crate) fn any_hit<L: Lanes>(
         l,
         ray,
         test,
+        cull,
         accept,
         found: false,
         counters: RayCounters::default(),
@@ -359,24 +452,30 @@ pub(crate) fn any_hit<L: Lanes>(
 }
 
 /// A single-ray query as a task generic over the lanes: `ANY` for [`any_hit`] (the hit is then
-/// [`Hit::NONE`]), else [`closest_hit`]; only hits `accept` accepts count.
-pub(crate) struct SingleRay<'a, T, A, const ANY: bool> {
+/// [`Hit::NONE`]), else [`closest_hit`]; `cull` drops what it can, and only hits `accept`
+/// accepts count.
+pub(crate) struct SingleRay<'a, T, C, A, const ANY: bool> {
     pub tree: &'a KdTree,
     pub ray: &'a Ray,
     pub test: T,
+    pub cull: C,
     pub accept: A,
 }
 
-impl<T: BlockTest, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask for SingleRay<'_, T, A, ANY> {
+impl<T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask
+    for SingleRay<'_, T, C, A, ANY>
+{
     type Output = (bool, Hit, RayCounters);
 
     #[inline(always)]
     fn run<L: Lanes>(self, l: L) -> (bool, Hit, RayCounters) {
         if ANY {
-            let (found, counters) = any_hit(l, self.tree, self.ray, &self.test, self.accept);
+            let (found, counters) =
+                any_hit(l, self.tree, self.ray, &self.test, self.cull, self.accept);
             (found, Hit::NONE, counters)
         } else {
-            let (hit, counters) = closest_hit(l, self.tree, self.ray, &self.test, self.accept);
+            let (hit, counters) =
+                closest_hit(l, self.tree, self.ray, &self.test, self.cull, self.accept);
             (hit.is_hit(), hit, counters)
         }
     }

@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use super::commit::{Committed, Entry};
 use super::top_level::MAX_DEPTH;
 use super::{GeometryId, InstanceId, Query, Scene, SceneHit};
-use crate::trace::{is_traceable, single_ray};
+use crate::trace::{is_traceable, single_ray, NoCull};
 use crate::{Error, Result};
 
 /// Rays per task of a stream.
@@ -222,10 +222,14 @@ impl Scene {
             let tree = &c.blas[e.blas as usize].tree;
             let r = object_ray(e, ray, bound);
             let (_, h, _) = match query.filter {
-                None => single_ray::<false>(self.dispatch, tree, self.intersector, &r, |_| true),
-                Some(f) => single_ray::<false>(self.dispatch, tree, self.intersector, &r, |h| {
-                    f(&scene_hit(e, h))
-                }),
+                None => {
+                    single_ray::<false>(self.dispatch, tree, self.intersector, &r, NoCull, |_| true)
+                }
+                Some(f) => {
+                    single_ray::<false>(self.dispatch, tree, self.intersector, &r, NoCull, |h| {
+                        f(&scene_hit(e, h))
+                    })
+                }
             };
             if h.is_hit() {
                 let candidate = scene_hit(e, &h);
@@ -246,10 +250,14 @@ impl Scene {
             let tree = &c.blas[e.blas as usize].tree;
             let r = object_ray(e, ray, bound);
             (found, ..) = match query.filter {
-                None => single_ray::<true>(self.dispatch, tree, self.intersector, &r, |_| true),
-                Some(f) => single_ray::<true>(self.dispatch, tree, self.intersector, &r, |h| {
-                    f(&scene_hit(e, h))
-                }),
+                None => {
+                    single_ray::<true>(self.dispatch, tree, self.intersector, &r, NoCull, |_| true)
+                }
+                Some(f) => {
+                    single_ray::<true>(self.dispatch, tree, self.intersector, &r, NoCull, |h| {
+                        f(&scene_hit(e, h))
+                    })
+                }
             };
             (!found).then_some(bound)
         });
