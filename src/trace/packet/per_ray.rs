@@ -20,7 +20,6 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let (l, tree, p) = (t.l, t.tree, t.packet);
     let (visitor, counters) = (&mut *t.visitor, &mut *t.counters);
     let groups = group_count::<L>(p.len());
-    let used = groups * L::WIDTH;
     let mut inv = [[0f32; N]; 3];
     let mut err = [[0f32; N]; 3];
     let max = l.splat(f32::MAX);
@@ -35,8 +34,13 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             );
         }
     }
-    let mut t_enter = [0f32; N];
-    let mut t_exit = [0f32; N];
+    // The current cell's per-ray interval and the split's scratch intervals, swapped by
+    // reference rather than copied. Only the lanes of rays in the current mask are ever read,
+    // so each loop below touches only the vectors that hold one.
+    let mut buffers = [[0f32; N]; 4];
+    let [t_enter, t_exit, near_exit, far_enter] = &mut buffers;
+    let (mut t_enter, mut t_exit) = (t_enter, t_exit);
+    let (mut near_exit, mut far_enter) = (near_exit, far_enter);
     let bounds = root_bounds(tree);
     let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
     let mut clipped = 0u64;
@@ -74,8 +78,6 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let mut top = 0;
     let mut node_index = 0u32;
     let mut done = 0u64;
-    let mut near_exit = [0f32; N];
-    let mut far_enter = [0f32; N];
     while mask != 0 {
         let node = nodes[node_index as usize];
         let mut descended = false;
@@ -102,6 +104,9 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 let act = l.mask_from_bits(bits);
                 l.store(ne, &mut near_exit[b..]);
                 l.store(fe, &mut far_enter[b..]);
+                // The far child's entry, written where it is pushed if both children are taken.
+                l.store(fe, &mut stack_enter[top][b..]);
+                l.store(tf, &mut stack_exit[top][b..]);
                 near_mask |= u64::from((act & tn.le(ne)).bits()) << b;
                 far_mask |= u64::from((act & fe.le(tf)).bits()) << b;
             }
@@ -109,15 +114,13 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 if far_mask != 0 {
                     stack_node[top] = far;
                     stack_mask[top] = far_mask;
-                    stack_enter[top][..used].copy_from_slice(&far_enter[..used]);
-                    stack_exit[top][..used].copy_from_slice(&t_exit[..used]);
                     top += 1;
                 }
-                t_exit[..used].copy_from_slice(&near_exit[..used]);
+                std::mem::swap(&mut t_exit, &mut near_exit);
                 (node_index, mask) = (near, near_mask);
                 descended = true;
             } else if far_mask != 0 {
-                t_enter[..used].copy_from_slice(&far_enter[..used]);
+                std::mem::swap(&mut t_enter, &mut far_enter);
                 (node_index, mask) = (far, far_mask);
                 descended = true;
             }
@@ -142,8 +145,6 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
         while mask == 0 && top > 0 {
             top -= 1;
             node_index = stack_node[top];
-            t_enter[..used].copy_from_slice(&stack_enter[top][..used]);
-            t_exit[..used].copy_from_slice(&stack_exit[top][..used]);
             let candidates = stack_mask[top] & !done;
             let best = visitor.best_t();
             for g in 0..groups {
@@ -152,7 +153,13 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                     continue;
                 }
                 let b = g * L::WIDTH;
-                let keep = l.load(&t_enter[b..]).le(l.load(&best[b..]));
+                let (enter, exit) = (
+                    l.load(&stack_enter[top][b..]),
+                    l.load(&stack_exit[top][b..]),
+                );
+                l.store(enter, &mut t_enter[b..]);
+                l.store(exit, &mut t_exit[b..]);
+                let keep = enter.le(l.load(&best[b..]));
                 mask |= u64::from((keep & l.mask_from_bits(bits)).bits()) << b;
             }
         }
