@@ -497,6 +497,8 @@ fn stale_ids_errors_and_commits() {
     let ray = Ray::new(Vec3::new(0.2, 0.2, -5.0), Vec3::Z);
     // Never committed: a miss, and the streams say why.
     assert!(!scene.intersect(&ray).is_hit() && !scene.occluded(&ray));
+    let packet = RayPacket::from_rays(&[ray; 4]);
+    assert_eq!(scene.occluded_packet(&packet, 0b1111, &Query::default()), 0);
     let mut out = [SceneHit::NONE];
     assert!(matches!(
         scene.intersect_stream(&[ray], &mut out, &Query::default()),
@@ -682,6 +684,27 @@ fn packets_match_single_rays_bit_for_bit() {
                         scene.intersect_with(r, &query),
                         "{intersector:?} {r:?}"
                     );
+                }
+                // Any hit, with segments ending before, at and beyond the closest hits, in
+                // packets of every size.
+                let shadow: Vec<Ray> = chunk
+                    .iter()
+                    .enumerate()
+                    .map(|(i, r)| Ray {
+                        tmax: [4.0, 12.0, 20.0, 30.0, f32::INFINITY][i % 5],
+                        ..*r
+                    })
+                    .collect();
+                for n in [4, 16, 64].into_iter().filter(|&n| n <= shadow.len()) {
+                    for part in shadow.chunks(n) {
+                        let packet = RayPacket::from_rays(part);
+                        let active = packet.full_mask() & !0b100;
+                        let occluded = scene.occluded_packet(&packet, active, &query);
+                        for (i, r) in part.iter().enumerate() {
+                            let expected = i != 2 && scene.occluded_with(r, &query);
+                            assert_eq!(occluded >> i & 1 == 1, expected, "{intersector:?} {r:?}");
+                        }
+                    }
                 }
             }
         }

@@ -5,7 +5,8 @@
 //! meshes with the `parallel` feature) and a BVH over the instances' world boxes (see
 //! `top_level.rs` for why a BVH); queries trace the scene as of the last commit. A ray enters
 //! an instance as the same ray carried to the mesh's space by the inverse transform, so `t` is
-//! the world ray's parameter. A packet ([`Scene::intersect_packet`]) enters an instance as one
+//! the world ray's parameter. A packet ([`Scene::intersect_packet`],
+//! [`Scene::occluded_packet`]) walks the top level as a whole and enters an instance as one
 //! packet carried to the mesh's space, so the beam works in the instance's kd-tree leaves.
 //!
 //! This room sits above [`crate::trace`]: it builds on [`crate::KdTree`] and the tracer's
