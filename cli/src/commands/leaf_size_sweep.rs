@@ -86,7 +86,9 @@ pub(crate) fn run(args: &SweepArgs) -> Result<()> {
     }
     let mut points = Vec::new();
     for &leaf_size in &args.leaf_size {
-        let params = BuildParams::default().with_leaf_size(leaf_size);
+        let params = BuildParams::default()
+            .with_leaf_size(leaf_size)
+            .with_ci_over_ct(args.leaf_ci_over_ct);
         let tree = with_spinner("building kd-tree", || KdTree::build(&mesh, &params))?;
         for (label, culling) in [
             ("none", Culling::NONE),

@@ -53,6 +53,10 @@ pub(crate) struct SweepArgs {
     /// trace times, tests per ray, share culled, memory.
     #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..))]
     pub(crate) leaf_size: Vec<u32>,
+    /// SAH cost ratio of the leaf-size sweep's trees: pbrt's 80 (its intersection cost over
+    /// its traversal cost) by default, so that nodes split down to the leaf size.
+    #[arg(long, default_value_t = 80.0)]
+    pub(crate) leaf_ci_over_ct: f32,
     /// Ray set of the leaf-size sweep: primary, random, or the secondary rays of the camera's
     /// primary hits (shadow, ao, diffuse).
     #[arg(long, value_enum, default_value = "primary")]
