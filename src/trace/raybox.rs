@@ -4,6 +4,7 @@
 //! triangle clipped to the leaf.
 
 use kdbeam_kernels::raybox::{overlapping, segment_box, BoxBlock};
+use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, Lanes, Ray};
 
 use super::single::{LeafEntry, TriangleCull};
@@ -38,6 +39,13 @@ pub(crate) struct RayBoxCull<'t> {
     /// The end of the segment `segment` was made for (NaN: none yet in this leaf).
     t_end: f32,
     segment: Aabb,
+    /// The leaf's first block in the tree's blocks, and its triangle count.
+    leaf_first: usize,
+    leaf_len: usize,
+    /// The block `kept` was computed for, against `segment` (`usize::MAX`: none).
+    kept_block: usize,
+    /// Of the triangles of block `kept_block`, those whose box overlaps `segment`.
+    kept: u32,
 }
 
 impl<'t> RayBoxCull<'t> {
@@ -50,6 +58,10 @@ impl<'t> RayBoxCull<'t> {
             t_exit: 0.0,
             t_end: f32::NAN,
             segment: Aabb::EMPTY,
+            leaf_first: 0,
+            leaf_len: 0,
+            kept_block: usize::MAX,
+            kept: 0,
         }
     }
 }
@@ -59,6 +71,8 @@ impl TriangleCull for RayBoxCull<'_> {
     fn enter(&mut self, _: &Ray, leaf: &LeafEntry<'_>) -> bool {
         self.on = leaf.triangles.len() >= RAYBOX_MIN_TRIANGLES;
         (self.t_enter, self.t_exit, self.t_end) = (leaf.t_enter, leaf.t_exit, f32::NAN);
+        (self.leaf_first, self.leaf_len) = (leaf.record.first as usize, leaf.triangles.len());
+        self.kept_block = usize::MAX;
         true
     }
 
@@ -75,12 +89,23 @@ impl TriangleCull for RayBoxCull<'_> {
         if !self.on {
             return valid;
         }
-        // The box changes only when a hit shortens the ray: made once per leaf and hit.
+        // The box changes only when a hit shortens the ray: made once per leaf and hit. A
+        // block's triangles are tested against it all at once, on its first vector (on
+        // scalar lanes, one call per block instead of one per triangle).
         let end = self.t_exit.min(tmax);
         if end != self.t_end {
             self.t_end = end;
             self.segment = segment_box(ray.origin, ray.direction, self.t_enter, end);
+            self.kept_block = usize::MAX;
         }
-        valid & overlapping(l, &self.segment, &self.boxes[block], first)
+        if block != self.kept_block {
+            let count = (self.leaf_len - (block - self.leaf_first) * BLOCK).min(BLOCK);
+            let boxes = &self.boxes[block];
+            self.kept_block = block;
+            self.kept = (0..count)
+                .step_by(L::WIDTH)
+                .fold(0, |m, f| m | overlapping(l, &self.segment, boxes, f) << f);
+        }
+        valid & self.kept >> first
     }
 }
