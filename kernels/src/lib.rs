@@ -1,6 +1,6 @@
 //! The kernels of kdbeam: SIMD lanes, rays and packets, triangle forms, ray × triangle tests,
-//! ray × box slabs, the transient frustum, and the counting and costing of split planes over
-//! boxes. They know rays, triangles and boxes, never trees.
+//! ray × box slabs, single-ray box culling, the transient frustum, and the counting and costing
+//! of split planes over boxes. They know rays, triangles and boxes, never trees.
 //!
 //! `#![no_std]` and allocation-free; the `std` feature only adds run-time ISA detection.
 #![cfg_attr(not(feature = "std"), no_std)]
@@ -15,6 +15,7 @@ pub mod intersect;
 pub mod lanes;
 pub mod packet;
 pub mod ray;
+pub mod raybox;
 pub mod slab;
 pub mod split_planes;
 pub mod triangle;

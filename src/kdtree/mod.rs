@@ -8,7 +8,11 @@ mod node;
 mod refs;
 mod sah;
 mod stats;
+mod triangle_boxes;
 
+use std::sync::OnceLock;
+
+use kdbeam_kernels::raybox::BoxBlock;
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
 
@@ -246,6 +250,8 @@ pub struct KdTree {
     bounds: Aabb,
     mesh_triangles: usize,
     stats: BuildStats,
+    /// [`KdTree::triangle_boxes`], made on first use and dropped by a rebuild.
+    triangle_boxes: OnceLock<Vec<BoxBlock>>,
 }
 
 impl KdTree {

@@ -1,4 +1,4 @@
-//! Which culling runs when a packet enters a leaf.
+//! Which culling runs when a packet or a single ray enters a leaf.
 
 use std::fmt;
 use std::str::FromStr;
@@ -78,6 +78,8 @@ pub struct Culling {
     pub min_triangles: u32,
     /// Leaf visits with fewer active rays are tested unculled.
     pub min_rays: u32,
+    /// Ray-box culling of single rays (Nah et al.; [`Culling::with_raybox`]).
+    pub raybox: bool,
 }
 
 impl Culling {
@@ -89,6 +91,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 0,
         min_rays: 0,
+        raybox: false,
     };
 
     /// Every stage, on every leaf visit: the fixed setting the benchmarks compare against.
@@ -99,6 +102,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 1,
         min_rays: 1,
+        raybox: false,
     };
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
@@ -112,21 +116,25 @@ impl Culling {
         aperture_first: true,
         min_triangles: 3,
         min_rays: 2,
+        raybox: false,
     };
 
     /// The named presets, for tables and sweeps.
-    pub const PRESETS: [(&'static str, Culling); 6] = [
+    pub const PRESETS: [(&'static str, Culling); 8] = [
         ("none", Culling::NONE),
+        ("raybox", Culling::NONE.with_raybox(true)),
         ("4plane", Culling::planes(Planes::Four, false)),
         ("6plane", Culling::planes(Planes::Six, false)),
         ("4plane+aperture", Culling::planes(Planes::Four, true)),
         ("6plane+aperture", Culling::FULL),
         ("auto", Culling::AUTO),
+        ("auto+raybox", Culling::AUTO.with_raybox(true)),
     ];
 
     /// Every culling setting worth telling apart (culling on): the presets, the masked frustum
-    /// and the distance-first order. The differential tests and the fuzzer run each of them.
-    pub const VARIANTS: [Culling; 10] = [
+    /// and the distance-first order, ray-box culling alone and with the default. The
+    /// differential tests and the fuzzer run each of them.
+    pub const VARIANTS: [Culling; 12] = [
         Culling::planes(Planes::Four, false),
         Culling::planes(Planes::Six, false),
         Culling::planes(Planes::Four, true),
@@ -139,6 +147,8 @@ impl Culling {
         Culling::FULL.with_aperture_first(false),
         Culling::planes(Planes::Six, false).with_frustum(Frustum::Packet),
         Culling::FULL.with_frustum(Frustum::Packet),
+        Culling::NONE.with_raybox(true),
+        Culling::AUTO.with_raybox(true),
     ];
 
     /// Fixed planes and aperture on every leaf visit, maskless.
@@ -181,6 +191,16 @@ impl Culling {
         Culling { min_rays, ..self }
     }
 
+    /// The same setting with ray-box culling of single rays on or off: in a leaf of at least
+    /// three triangles, a ray's segment there (up to its closest hit so far) is boxed and
+    /// tested against a box per triangle clipped to the leaf (Nah, Park, Kang & Han, *Ray-Box
+    /// Culling for Tree Structures*, J. Inf. Sci. Eng.), before any ray–triangle test. The
+    /// tree's boxes are built on first use ([`crate::KdTree::triangle_boxes`]).
+    #[must_use]
+    pub const fn with_raybox(self, raybox: bool) -> Culling {
+        Culling { raybox, ..self }
+    }
+
     /// Is any beam built at all?
     #[must_use]
     pub fn is_enabled(&self) -> bool {
@@ -220,7 +240,7 @@ impl Culling {
     ///
     /// Of the bases that fit (`none`, `4plane`, `6plane`, `auto`) the one that needs the fewest
     /// options is named (`auto` before `6plane` on a tie), then `+aperture` when the aperture
-    /// test is on, then, in this order, each option whose value differs from the base's:
+    /// test is on, `+raybox` when ray-box culling is (`none+raybox` is named `raybox`), then, in this order, each option whose value differs from the base's:
     /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
@@ -251,6 +271,14 @@ impl Culling {
         let mut name = base_name.to_string();
         if self.aperture {
             name.push_str("+aperture");
+        }
+        if self.raybox {
+            if name == "none" {
+                name.clear();
+            } else {
+                name.push('+');
+            }
+            name.push_str("raybox");
         }
         for option in options {
             name.push('/');
@@ -314,7 +342,8 @@ impl fmt::Display for Culling {
 }
 
 /// What the culling grammar accepts, for error messages.
-const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, then any of \
+const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto, or raybox alone), optionally \
+    +aperture and +raybox, then any of \
     /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
     /min-rays=N (at most one of each kind): e.g. 6plane+aperture/masked/distance-first";
 
@@ -326,8 +355,10 @@ impl FromStr for Culling {
     /// of settings can be comma separated).
     ///
     /// - The base: `none`, `4plane`, `6plane` (fixed planes on every leaf visit, maskless) or
-    ///   `auto` ([`Culling::AUTO`]); then `+aperture` adds the aperture test. Every preset of
-    ///   [`Culling::PRESETS`] is such a name (`4plane+aperture`, `6plane+aperture`).
+    ///   `auto` ([`Culling::AUTO`]); then `+aperture` adds the aperture test and `+raybox`
+    ///   ray-box culling of single rays ([`Culling::with_raybox`]), in either order; `raybox`
+    ///   alone is `none+raybox`. Every preset of [`Culling::PRESETS`] is such a name
+    ///   (`4plane+aperture`, `6plane+aperture`, `auto+raybox`).
     /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`), the order
     ///   (`/aperture-first`, `/distance-first`), and the leaves and visits that skip culling
     ///   (`/min-triangles=N`, `/min-rays=N`), at most one of each kind, in any order.
@@ -359,20 +390,31 @@ impl FromStr for Culling {
         let mut parts = lower.split('/');
         let mut stages = parts.next().unwrap_or_default().split('+');
         let base = stages.next().unwrap_or_default();
-        let mut c = BASES
-            .iter()
-            .find(|(name, _)| *name == base)
-            .ok_or_else(|| bad(format!("unknown base {base:?}")))?
-            .1;
+        let (mut c, mut raybox) = if base == "raybox" {
+            (Culling::NONE, true)
+        } else {
+            let found = BASES.iter().find(|(name, _)| *name == base);
+            (
+                found
+                    .ok_or_else(|| bad(format!("unknown base {base:?}")))?
+                    .1,
+                false,
+            )
+        };
         let mut aperture = false;
         for stage in stages {
-            match stage {
-                "aperture" if !aperture => aperture = true,
-                "aperture" => return Err(bad("aperture twice".into())),
+            let seen = match stage {
+                "aperture" => &mut aperture,
+                "raybox" => &mut raybox,
                 _ => return Err(bad(format!("unknown stage {stage:?}"))),
+            };
+            if *seen {
+                return Err(bad(format!("{stage} twice")));
             }
+            *seen = true;
         }
         c.aperture |= aperture;
+        c.raybox = raybox;
         let (mut frustum, mut order, mut triangles, mut rays) = (None, None, None, None);
         for option in parts {
             let (slot, value) = match option.split_once('=') {
@@ -415,11 +457,19 @@ mod tests {
 
     use super::*;
 
-    /// Every base, with and without the aperture test.
+    /// Every base, with and without the aperture test and ray-box culling.
     fn stage_lists() -> Vec<String> {
         BASES
             .iter()
-            .flat_map(|(name, _)| [name.to_string(), format!("{name}+aperture")])
+            .flat_map(|(name, _)| {
+                [
+                    name.to_string(),
+                    format!("{name}+aperture"),
+                    format!("{name}+raybox"),
+                    format!("{name}+raybox+aperture"),
+                ]
+            })
+            .chain(["raybox".into(), "raybox+aperture".into()])
             .collect()
     }
 
@@ -453,7 +503,8 @@ mod tests {
             for options in option_lists() {
                 let text = format!("{stages}{options}");
                 let c: Culling = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
-                assert_eq!(c.aperture, stages.ends_with("+aperture"), "{text}");
+                assert_eq!(c.aperture, stages.contains("+aperture"), "{text}");
+                assert_eq!(c.raybox, stages.contains("raybox"), "{text}");
                 let name = c.to_string();
                 assert!(!name.contains(','), "{name}");
                 assert_eq!(
@@ -483,7 +534,7 @@ mod tests {
         }
         // One name per setting, and many settings covered.
         assert_eq!(names.len(), settings.len());
-        assert!(settings.len() > 300, "{}", settings.len());
+        assert!(settings.len() > 600, "{}", settings.len());
     }
 
     #[test]
@@ -508,6 +559,17 @@ mod tests {
             Culling::AUTO.with_frustum(Frustum::Masked).to_string(),
             "auto/masked"
         );
+        assert_eq!(
+            "raybox".parse::<Culling>().unwrap(),
+            Culling::NONE.with_raybox(true)
+        );
+        assert_eq!(
+            "none+raybox".parse::<Culling>().unwrap().to_string(),
+            "raybox"
+        );
+        let c: Culling = "raybox+aperture/min-rays=3".parse().unwrap();
+        assert!(c.raybox && c.aperture && c.planes == Planes::None && c.min_rays == 3);
+        assert_eq!(c.to_string().parse::<Culling>().unwrap(), c, "{c}");
     }
 
     #[test]
@@ -518,7 +580,10 @@ mod tests {
             "4plane/sideways",
             "6plane,distance-first",
             "6plane+aperture/masked,distance-first",
-            "6plane+raybox",
+            "6plane+frustum",
+            "raybox+raybox",
+            "auto+raybox+raybox",
+            "none+raybox+aperture+raybox",
             "6plane+aperture+aperture",
             "aperture",
             "6plane/",

@@ -7,6 +7,7 @@ mod culling;
 pub mod filtered;
 pub mod leaf;
 mod packet;
+mod raybox;
 pub mod reference;
 mod single;
 mod stream;
@@ -151,8 +152,8 @@ impl<'t> Tracer<'t> {
         Tracer { packet, ..self }
     }
 
-    /// The same tracer with another culling setting (packets only: single rays are never
-    /// culled).
+    /// The same tracer with another culling setting: the beam stages cull packets,
+    /// [`Culling::raybox`] single rays.
     #[must_use]
     pub fn with_culling(self, culling: Culling) -> Self {
         Tracer { culling, ..self }
@@ -221,14 +222,13 @@ impl<'t> Tracer<'t> {
     /// One ray on this tracer's ISA: `ANY` for an any-hit query.
     #[inline]
     fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
-        single_ray::<ANY>(
-            self.dispatch,
-            self.tree,
-            self.intersector,
-            ray,
-            NoCull,
-            |_| true,
-        )
+        let (dispatch, tree, intersector) = (self.dispatch, self.tree, self.intersector);
+        if self.culling.raybox {
+            let cull = raybox::RayBoxCull::new(tree.triangle_boxes());
+            single_ray::<ANY>(dispatch, tree, intersector, ray, cull, |_| true)
+        } else {
+            single_ray::<ANY>(dispatch, tree, intersector, ray, NoCull, |_| true)
+        }
     }
 
     /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.

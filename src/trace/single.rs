@@ -271,6 +271,17 @@ impl BlockTest for WatertightTest {
     }
 }
 
+/// How many lanes of `bits` (a mask of `WIDTH` lanes) are set: on one lane the bit itself, as
+/// `count_ones` without POPCNT (the baseline x86-64) is a dozen instructions.
+#[inline(always)]
+fn set_lanes<L: Lanes>(bits: u32) -> u64 {
+    if L::WIDTH == 1 {
+        u64::from(bits & 1)
+    } else {
+        u64::from(bits.count_ones())
+    }
+}
+
 /// The vectors of `WIDTH` triangles of `leaf` that hold real ones: `(block, index of the block
 /// in the tree's blocks, first lane, valid lanes)`, in leaf order.
 #[inline(always)]
@@ -335,8 +346,8 @@ pub(crate) fn closest_hit<L: Lanes>(
                     self.ray.tmax
                 };
                 let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
-                self.counters.tests += u64::from(kept.count_ones());
-                self.counters.culled += u64::from((valid & !kept).count_ones());
+                self.counters.tests += set_lanes::<L>(kept);
+                self.counters.culled += set_lanes::<L>(valid & !kept);
                 if kept == 0 {
                     continue;
                 }
@@ -413,8 +424,8 @@ pub(crate) fn any_hit<L: Lanes>(
             while let Some((block, index, first, valid)) = vectors.next() {
                 let tmax = self.ray.tmax;
                 let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
-                self.counters.tests += u64::from(kept.count_ones());
-                self.counters.culled += u64::from((valid & !kept).count_ones());
+                self.counters.tests += set_lanes::<L>(kept);
+                self.counters.culled += set_lanes::<L>(valid & !kept);
                 if kept == 0 {
                     continue;
                 }

@@ -196,8 +196,8 @@ pub fn trace_packets(data: &[u8]) {
 /// The `culling` target: the scene and rays of [`trace_packets`], traced with the culling
 /// setting the input's last byte chooses.
 ///
-/// Checks: every packet and stream path with culling equals the scalar path (which never culls)
-/// bit for bit: no culling stage ever changes a hit. The packet traversal
+/// Checks: every single-ray, packet and stream path with culling equals the unculled scalar
+/// path bit for bit: no culling stage ever changes a hit. The packet traversal
 /// ([`Frustum::Packet`]) makes more tests than the scalar path: where it differs, its hit must
 /// win by [`wins_by_an_extra_test`].
 pub fn culling(data: &[u8]) {
@@ -268,6 +268,24 @@ fn check_packets(mesh: Option<&Mesh>, tree: &KdTree, rays: &[Ray], active: u64, 
             );
         }
         for isa in Isa::available() {
+            // Single rays with the setting (ray-box culling, when it has it) too.
+            let single = scalar
+                .with_isa(isa)
+                .expect("available")
+                .with_culling(culling);
+            for (k, r) in rays.iter().enumerate() {
+                let got = single.intersect(r);
+                assert!(
+                    same_hit(&got, &expected[k]),
+                    "{isa} {intersector:?} {culling}: single ray {k} {r:?}: {got:?}, scalar {:?}",
+                    expected[k]
+                );
+                assert_eq!(
+                    single.occluded(r),
+                    expected_occluded[k],
+                    "{isa} {intersector:?} {culling}: occluded single ray {k} {r:?}"
+                );
+            }
             for shape in PacketShape::ALL {
                 let tracer = scalar
                     .with_isa(isa)

@@ -64,9 +64,11 @@ pub(crate) struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     packet: Vec<usize>,
     /// Culling settings to measure, comma separated: none, 4plane, 6plane or auto, `+aperture`
-    /// to add the corner-ray test, then options after `/`: masked, maskless, adaptive, packet
+    /// to add the corner-ray test, `+raybox` for ray-box culling of single rays (`raybox`
+    /// alone: only that), then options after `/`: masked, maskless, adaptive, packet
     /// (whole-packet traversal), distance-first, aperture-first; e.g.
-    /// `none,auto,6plane+aperture/masked/distance-first`.
+    /// `none,auto,6plane+aperture/masked/distance-first`. Single rays (`--packet 1`) run one
+    /// row with and one without ray-box culling, as the settings given ask.
     #[arg(long, value_delimiter = ',', default_value = "none,auto")]
     culling: Vec<Culling>,
     /// SAH cost ratios of the kd-trees to measure, comma separated: one tree per value.
@@ -229,15 +231,16 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
                 for layout in rays.kdbeam_layouts(packet, &args.layout)? {
-                    // Single rays are never culled: one row per ISA for them.
+                    // Single rays know only ray-box culling: one row per ISA for each of
+                    // its settings given, the first culling of each standing for it.
                     let cullings = if packet == 1 {
-                        &args.culling[..1]
+                        single_ray_cullings(&args.culling)
                     } else {
-                        &args.culling[..]
+                        args.culling.clone()
                     };
                     for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
                         for &isa in &isas {
-                            for &culling in cullings {
+                            for &culling in &cullings {
                                 let mut tracer = Tracer::new(&tree)
                                     .with_intersector(args.intersector)
                                     .with_isa(isa)?
@@ -249,7 +252,8 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     measure(args.reps, &tracer, &layout, args.rays.any_hit())
                                 });
                                 let mrays = layout.len() as f64 / seconds / 1e6;
-                                if packet == 1 && isa == Isa::Scalar {
+                                // The first single-ray setting given is the baseline.
+                                if packet == 1 && isa == Isa::Scalar && scalar.is_none() {
                                     *scalar = Some(mrays);
                                 }
                                 let row = Row {
@@ -260,7 +264,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     layout: layout.name(args.rays),
                                     intersector: args.intersector.name(),
                                     culling: if packet == 1 {
-                                        "none".into()
+                                        single_ray_culling_name(culling).into()
                                     } else {
                                         culling.name()
                                     },
@@ -287,6 +291,27 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
         all.extend(rows);
     }
     Ok(all)
+}
+
+/// The settings that differ for single rays, in the order given: the first of `cullings`
+/// without ray-box culling and the first with it.
+fn single_ray_cullings(cullings: &[Culling]) -> Vec<Culling> {
+    let mut out: Vec<Culling> = Vec::new();
+    for &c in cullings {
+        if !out.iter().any(|o| o.raybox == c.raybox) {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// What of `culling` single rays run: `raybox` or `none`.
+fn single_ray_culling_name(culling: Culling) -> &'static str {
+    if culling.raybox {
+        "raybox"
+    } else {
+        "none"
+    }
 }
 
 /// The tree options of `args` with the SAH cost ratio `ci_over_ct`.

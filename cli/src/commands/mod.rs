@@ -12,6 +12,7 @@ pub(crate) mod accuracy;
 pub(crate) mod bench;
 pub(crate) mod build_bench;
 pub(crate) mod figures;
+pub(crate) mod leaf_size_sweep;
 pub(crate) mod render;
 pub(crate) mod sweep;
 pub(crate) mod synthetic;

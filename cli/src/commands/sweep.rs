@@ -2,10 +2,12 @@
 
 use std::path::PathBuf;
 
+use kdbeam::rays::secondary::DEFAULT_AO_RAYS;
 use kdbeam::trace::{Culling, Frustum, Planes};
 use kdbeam::Camera;
 use kdbeam::{BuildParams, Isa, KdTree, Tracer};
 use kdbeam_cli::render;
+use kdbeam_cli::render::RaySet;
 use kdbeam_cli::report::{csv, LinePlot, Series};
 use kdbeam_cli::Result;
 
@@ -14,7 +16,7 @@ use super::{load_scene, packet_shape, thread_pool, with_spinner};
 #[derive(clap::Args)]
 pub(crate) struct SweepArgs {
     /// The scene (default builtin:default).
-    scene: Option<String>,
+    pub(crate) scene: Option<String>,
     /// Smallest ci_over_ct (the culled optimum of the shared scenes lies near 0.01–0.1).
     #[arg(long, default_value_t = 0.01)]
     from: f32,
@@ -26,26 +28,42 @@ pub(crate) struct SweepArgs {
     steps: usize,
     /// Image size of the primary rays, WIDTHxHEIGHT.
     #[arg(long, default_value = "1024x1024", value_parser = super::parse_size)]
-    size: (u32, u32),
+    pub(crate) size: (u32, u32),
     /// Instruction sets, comma separated (default: the widest this CPU runs). Each tree is
     /// traced on each.
     #[arg(long, value_delimiter = ',')]
-    isa: Vec<Isa>,
+    pub(crate) isa: Vec<Isa>,
     /// Packet size in rays.
     #[arg(long, default_value_t = 64)]
     packet: usize,
     /// Worker threads.
     #[arg(long, default_value_t = 1)]
-    threads: usize,
+    pub(crate) threads: usize,
     /// Timed repetitions per point (the median is reported).
     #[arg(long, default_value_t = 3)]
-    reps: usize,
+    pub(crate) reps: usize,
     /// Folder for sweep.csv and sweep.svg (default: no files).
     #[arg(long)]
     out: Option<PathBuf>,
     /// One JSON object per line instead of a table.
     #[arg(long)]
-    json: bool,
+    pub(crate) json: bool,
+    /// Instead of tree sizes, sweep leaf sizes, comma separated (nodes of at most N triangles
+    /// become leaves), each traced as single rays without and with ray-box culling: build and
+    /// trace times, tests per ray, share culled, memory.
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) leaf_size: Vec<u32>,
+    /// SAH cost ratio of the leaf-size sweep's trees: pbrt's 80 (its intersection cost over
+    /// its traversal cost) by default, so that nodes split down to the leaf size.
+    #[arg(long, default_value_t = 80.0)]
+    pub(crate) leaf_ci_over_ct: f32,
+    /// Ray set of the leaf-size sweep: primary, random, or the secondary rays of the camera's
+    /// primary hits (shadow, ao, diffuse).
+    #[arg(long, value_enum, default_value = "primary")]
+    pub(crate) rays: RaySet,
+    /// Ambient-occlusion rays per primary hit (`--rays ao`).
+    #[arg(long, default_value_t = DEFAULT_AO_RAYS, value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub(crate) ao_rays: u32,
 }
 
 #[derive(serde::Serialize)]
@@ -62,6 +80,9 @@ pub(crate) struct Point {
 }
 
 pub(crate) fn run(args: SweepArgs) -> Result<()> {
+    if !args.leaf_size.is_empty() {
+        return super::leaf_size_sweep::run(&args);
+    }
     points(&args).map(|_| ())
 }
 

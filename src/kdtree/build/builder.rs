@@ -1,5 +1,6 @@
 //! The entry points: [`KdTree::build`] and the reusable [`KdTreeBuilder`].
 
+use std::sync::OnceLock;
 use std::time::Instant;
 
 use kdbeam_kernels::lanes::Dispatch;
@@ -61,6 +62,7 @@ impl KdTree {
             bounds: Aabb::EMPTY,
             mesh_triangles: 0,
             stats: BuildStats::default(),
+            triangle_boxes: OnceLock::new(),
         }
     }
 }
@@ -208,6 +210,7 @@ impl KdTreeBuilder {
         );
         tree.bounds = bounds;
         tree.mesh_triangles = n;
+        tree.triangle_boxes = OnceLock::new();
         let build_time = started.elapsed();
         let (nodes, leaves, blocks) = (&tree.nodes, &tree.leaves, &tree.blocks);
         tree.stats = BuildStats {

@@ -66,8 +66,12 @@ fn rebuilding_into_an_old_tree_gives_the_fresh_build() {
     let mut tree = builder.build(&big, &params).unwrap();
     // Smaller, larger, smaller again: nothing of the previous tree or build may survive.
     for mesh in [&small, &big, &small] {
+        // The ray-box culling boxes of the old tree must not survive either.
+        let _ = tree.triangle_boxes();
         builder.rebuild(&mut tree, mesh, &params).unwrap();
         let fresh = KdTree::build(mesh, &params).unwrap();
+        assert_eq!(tree.raybox_bytes(), 0);
+        assert_eq!(tree.triangle_boxes(), fresh.triangle_boxes());
         assert!(same_tree(&tree, &fresh));
         assert_eq!(tree.bounds, fresh.bounds);
         assert_eq!(tree.mesh_triangles, fresh.mesh_triangles);
