@@ -17,6 +17,7 @@ pub mod packet;
 pub mod ray;
 pub mod slab;
 pub mod split_planes;
+pub mod subspace;
 pub mod triangle;
 
 pub use aabb::Aabb;

@@ -8,6 +8,7 @@ mod node;
 mod refs;
 mod sah;
 mod stats;
+mod subspace;
 
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
@@ -15,6 +16,7 @@ use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
 pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
+pub use subspace::{LeafMask, SubspaceMasks, SubspaceResolution};
 
 use crate::{Error, Result};
 
@@ -246,6 +248,8 @@ pub struct KdTree {
     bounds: Aabb,
     mesh_triangles: usize,
     stats: BuildStats,
+    /// Subspace-culling masks, built on first use.
+    subspace: subspace::SubspaceCache,
 }
 
 impl KdTree {

@@ -5,6 +5,7 @@ use std::str::FromStr;
 
 use kdbeam_kernels::beam::Stages;
 
+use super::subspace::Subspace;
 use crate::{Error, Result};
 
 /// The frustum planes a beam checks.
@@ -78,6 +79,8 @@ pub struct Culling {
     pub min_triangles: u32,
     /// Leaf visits with fewer active rays are tested unculled.
     pub min_rays: u32,
+    /// Subspace culling of single rays ([`Subspace`]); packets ignore it.
+    pub subspace: Option<Subspace>,
 }
 
 impl Culling {
@@ -89,6 +92,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 0,
         min_rays: 0,
+        subspace: None,
     };
 
     /// Every stage, on every leaf visit: the fixed setting the benchmarks compare against.
@@ -99,6 +103,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 1,
         min_rays: 1,
+        subspace: None,
     };
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
@@ -112,6 +117,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 3,
         min_rays: 2,
+        subspace: None,
     };
 
     /// The named presets, for tables and sweeps.
@@ -175,10 +181,23 @@ impl Culling {
         }
     }
 
+    /// The same setting with another [`subspace`](Culling::subspace) stage.
+    #[must_use]
+    pub const fn with_subspace(self, subspace: Option<Subspace>) -> Culling {
+        Culling { subspace, ..self }
+    }
+
     /// The same setting with another [`min_rays`](Culling::min_rays).
     #[must_use]
     pub const fn with_min_rays(self, min_rays: u32) -> Culling {
         Culling { min_rays, ..self }
+    }
+
+    /// The stages single rays run (the rest of the setting is for packets): today the
+    /// [`subspace`](Culling::subspace) stage, on [`Culling::NONE`].
+    #[must_use]
+    pub const fn single_ray_stages(&self) -> Culling {
+        Culling::NONE.with_subspace(self.subspace)
     }
 
     /// Is any beam built at all?
@@ -221,7 +240,8 @@ impl Culling {
     /// Of the bases that fit (`none`, `4plane`, `6plane`, `auto`) the one that needs the fewest
     /// options is named (`auto` before `6plane` on a tie), then `+aperture` when the aperture
     /// test is on, then, in this order, each option whose value differs from the base's:
-    /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
+    /// the frustum, the order, `min-triangles=N`, `min-rays=N`; a subspace stage follows the
+    /// aperture's (`none+subspace` alone prints as `subspace`). So the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
     #[must_use]
@@ -251,6 +271,13 @@ impl Culling {
         let mut name = base_name.to_string();
         if self.aperture {
             name.push_str("+aperture");
+        }
+        if let Some(subspace) = self.subspace {
+            if name == "none" && options.is_empty() {
+                return subspace.name().to_string();
+            }
+            name.push('+');
+            name.push_str(subspace.name());
         }
         for option in options {
             name.push('/');
@@ -314,7 +341,8 @@ impl fmt::Display for Culling {
 }
 
 /// What the culling grammar accepts, for error messages.
-const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, then any of \
+const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture and one of \
+    +subspace|+subspace6|+subspace-exact|+subspace6-exact (a subspace stage alone is none with it), then any of \
     /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
     /min-rays=N (at most one of each kind): e.g. 6plane+aperture/masked/distance-first";
 
@@ -359,20 +387,30 @@ impl FromStr for Culling {
         let mut parts = lower.split('/');
         let mut stages = parts.next().unwrap_or_default().split('+');
         let base = stages.next().unwrap_or_default();
-        let mut c = BASES
-            .iter()
-            .find(|(name, _)| *name == base)
-            .ok_or_else(|| bad(format!("unknown base {base:?}")))?
-            .1;
+        let subspace_named = |stage: &str| Subspace::ALL.into_iter().find(|s| s.name() == stage);
+        let mut subspace = subspace_named(base);
+        let mut c = match subspace {
+            Some(_) => Culling::NONE,
+            None => {
+                BASES
+                    .iter()
+                    .find(|(name, _)| *name == base)
+                    .ok_or_else(|| bad(format!("unknown base {base:?}")))?
+                    .1
+            }
+        };
         let mut aperture = false;
         for stage in stages {
-            match stage {
-                "aperture" if !aperture => aperture = true,
-                "aperture" => return Err(bad("aperture twice".into())),
+            match (stage, subspace_named(stage)) {
+                ("aperture", _) if !aperture => aperture = true,
+                ("aperture", _) => return Err(bad("aperture twice".into())),
+                (_, Some(s)) if subspace.is_none() => subspace = Some(s),
+                (_, Some(_)) => return Err(bad("two subspace stages".into())),
                 _ => return Err(bad(format!("unknown stage {stage:?}"))),
             }
         }
         c.aperture |= aperture;
+        c.subspace = subspace;
         let (mut frustum, mut order, mut triangles, mut rays) = (None, None, None, None);
         for option in parts {
             let (slot, value) = match option.split_once('=') {
@@ -417,10 +455,16 @@ mod tests {
 
     /// Every base, with and without the aperture test.
     fn stage_lists() -> Vec<String> {
-        BASES
+        let mut lists: Vec<String> = BASES
             .iter()
             .flat_map(|(name, _)| [name.to_string(), format!("{name}+aperture")])
-            .collect()
+            .collect();
+        for s in Subspace::ALL {
+            lists.push(s.name().to_string());
+            lists.push(format!("auto+{}", s.name()));
+            lists.push(format!("6plane+aperture+{}", s.name()));
+        }
+        lists
     }
 
     /// Every combination of options, each kind absent or set to each of its values.
@@ -453,7 +497,8 @@ mod tests {
             for options in option_lists() {
                 let text = format!("{stages}{options}");
                 let c: Culling = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
-                assert_eq!(c.aperture, stages.ends_with("+aperture"), "{text}");
+                assert_eq!(c.aperture, stages.contains("+aperture"), "{text}");
+                assert_eq!(c.subspace.is_some(), stages.contains("subspace"), "{text}");
                 let name = c.to_string();
                 assert!(!name.contains(','), "{name}");
                 assert_eq!(
@@ -495,6 +540,14 @@ mod tests {
         for c in Culling::VARIANTS {
             assert_eq!(c.to_string().parse::<Culling>().unwrap(), c, "{c}");
         }
+        for s in Subspace::ALL {
+            let c = Culling::NONE.with_subspace(Some(s));
+            assert_eq!(c.to_string(), s.name());
+            assert_eq!(s.name().parse::<Culling>().unwrap(), c);
+            assert_eq!(format!("none+{}", s.name()).parse::<Culling>().unwrap(), c);
+            let auto = Culling::AUTO.with_subspace(Some(s));
+            assert_eq!(auto.to_string(), format!("auto+{}", s.name()));
+        }
         let c: Culling = "6plane/packet".parse().unwrap();
         assert!(c.interval_traversal() && c.to_string() == "6plane/packet");
         assert!(!Culling::NONE
@@ -519,6 +572,10 @@ mod tests {
             "6plane,distance-first",
             "6plane+aperture/masked,distance-first",
             "6plane+raybox",
+            "subspace+subspace6",
+            "none+subspace+subspace",
+            "subspace7",
+            "6plane+subspace-ideal",
             "6plane+aperture+aperture",
             "aperture",
             "6plane/",

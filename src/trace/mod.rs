@@ -10,6 +10,7 @@ mod packet;
 pub mod reference;
 mod single;
 mod stream;
+mod subspace;
 pub mod synthetic;
 
 use std::marker::PhantomData;
@@ -25,6 +26,7 @@ pub use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
 pub(crate) use single::{NoCull, TriangleCull};
+pub use subspace::Subspace;
 
 use crate::kdtree::KdTree;
 use crate::{Error, Result};
@@ -151,8 +153,8 @@ impl<'t> Tracer<'t> {
         Tracer { packet, ..self }
     }
 
-    /// The same tracer with another culling setting (packets only: single rays are never
-    /// culled).
+    /// The same tracer with another culling setting (single rays run only its
+    /// [`subspace`](Culling::subspace) stage; packets ignore that one).
     #[must_use]
     pub fn with_culling(self, culling: Culling) -> Self {
         Tracer { culling, ..self }
@@ -221,14 +223,22 @@ impl<'t> Tracer<'t> {
     /// One ray on this tracer's ISA: `ANY` for an any-hit query.
     #[inline]
     fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
-        single_ray::<ANY>(
-            self.dispatch,
-            self.tree,
-            self.intersector,
-            ray,
-            NoCull,
-            |_| true,
-        )
+        self.single_filtered::<ANY>(ray, |_| true)
+    }
+
+    /// [`Tracer::single`] counting only hits `accept` accepts, with the culling's single-ray
+    /// stages.
+    #[inline]
+    pub(crate) fn single_filtered<const ANY: bool>(
+        &self,
+        ray: &Ray,
+        accept: impl FnMut(&Hit) -> bool,
+    ) -> (bool, Hit, RayCounters) {
+        let (dispatch, tree, intersector) = (self.dispatch, self.tree, self.intersector);
+        if let Some(s) = self.culling.subspace {
+            return subspace::single_ray_culled::<ANY>(dispatch, tree, intersector, ray, s, accept);
+        }
+        single_ray::<ANY>(dispatch, tree, intersector, ray, NoCull, accept)
     }
 
     /// Closest hits of the rays of `packet` whose bit is set in `active`, on this tracer's ISA.

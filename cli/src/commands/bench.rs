@@ -64,9 +64,11 @@ pub(crate) struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     packet: Vec<usize>,
     /// Culling settings to measure, comma separated: none, 4plane, 6plane or auto, `+aperture`
-    /// to add the corner-ray test, then options after `/`: masked, maskless, adaptive, packet
-    /// (whole-packet traversal), distance-first, aperture-first; e.g.
-    /// `none,auto,6plane+aperture/masked/distance-first`.
+    /// to add the corner-ray test, `+subspace`, `+subspace6`, `+subspace-exact` or
+    /// `+subspace6-exact` for subspace culling of single rays (alone: none with it), then
+    /// options after `/`: masked, maskless, adaptive, packet (whole-packet traversal),
+    /// distance-first, aperture-first; e.g. `none,auto,6plane+aperture/masked/distance-first`.
+    /// Single-ray rows (`--packet 1`) run only the single-ray stages.
     #[arg(long, value_delimiter = ',', default_value = "none,auto")]
     culling: Vec<Culling>,
     /// SAH cost ratios of the kd-trees to measure, comma separated: one tree per value.
@@ -131,6 +133,9 @@ pub(crate) struct Row {
     pub(crate) mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
+    /// Share of the ray–triangle tests a single-ray culling stage removed, in percent; NaN
+    /// (JSON `null`) for packets and Embree.
+    culled_percent: f64,
     /// NaN (JSON `null`) when the run measures no scalar single-ray path (`--packet` without 1,
     /// or `--isa` without scalar).
     speedup_vs_scalar: f64,
@@ -199,7 +204,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     };
     if !args.json {
         println!(
-            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>7} {:>9}",
             "scene",
             "rays",
             "isa",
@@ -211,6 +216,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             "threads",
             "Mrays/s",
             "tests/ray",
+            "culled",
             "vs scalar"
         );
     }
@@ -229,12 +235,14 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
                 for layout in rays.kdbeam_layouts(packet, &args.layout)? {
-                    // Single rays are never culled: one row per ISA for them.
-                    let cullings = if packet == 1 {
-                        &args.culling[..1]
-                    } else {
-                        &args.culling[..]
-                    };
+                    // Single rays run only the culling's single-ray stages: a row per distinct one.
+                    let mut single = Vec::new();
+                    for c in args.culling.iter().map(Culling::single_ray_stages) {
+                        if !single.contains(&c) {
+                            single.push(c);
+                        }
+                    }
+                    let cullings = if packet == 1 { &single } else { &args.culling };
                     for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
                         for &isa in &isas {
                             for &culling in cullings {
@@ -245,10 +253,15 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                 if packet > 1 {
                                     tracer = tracer.with_packet(packet_shape(packet)?);
                                 }
+                                if let Some(stage) = culling.subspace {
+                                    // Masks and tables are built on first use: not in the timing.
+                                    stage.prepare(&tree);
+                                }
                                 let (seconds, tests) = pool.install(|| {
                                     measure(args.reps, &tracer, &layout, args.rays.any_hit())
                                 });
                                 let mrays = layout.len() as f64 / seconds / 1e6;
+                                let culled = culled_percent(&tracer, &layout, args.rays.any_hit());
                                 if packet == 1 && isa == Isa::Scalar {
                                     *scalar = Some(mrays);
                                 }
@@ -259,16 +272,13 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     packet,
                                     layout: layout.name(args.rays),
                                     intersector: args.intersector.name(),
-                                    culling: if packet == 1 {
-                                        "none".into()
-                                    } else {
-                                        culling.name()
-                                    },
+                                    culling: culling.name(),
                                     ci_over_ct: Some(ci_over_ct),
                                     context: None,
                                     threads: *threads,
                                     mrays_per_s: mrays,
                                     tests_per_ray: tests,
+                                    culled_percent: culled,
                                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                                 };
                                 print_row(&row, args.json);
@@ -524,6 +534,26 @@ pub(crate) fn measure(
     (seconds, tests as f64 / n.max(1) as f64)
 }
 
+/// For single rays, the share (percent) of ray–triangle tests `tracer`'s single-ray culling
+/// removes, counted in one untimed pass; NaN for packets.
+fn culled_percent(tracer: &Tracer<'_>, rays: &KdbeamRays, any: bool) -> f64 {
+    let KdbeamRays::Single(rays) = rays else {
+        return f64::NAN;
+    };
+    let (tests, culled) = rays
+        .par_iter()
+        .map(|r| {
+            let c = if any {
+                tracer.occluded_counted(r).1
+            } else {
+                tracer.intersect_counted(r).1
+            };
+            (c.tests, c.culled)
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    100.0 * culled as f64 / (tests + culled).max(1) as f64
+}
+
 /// Each packet's share of `out`, cut before timing.
 fn split_per_packet<'a, T>(packets: &[RayPacket], out: &'a mut [T]) -> Vec<&'a mut [T]> {
     let mut slots = Vec::with_capacity(packets.len());
@@ -596,6 +626,7 @@ fn embree_rows(
                     threads: *threads,
                     mrays_per_s: mrays,
                     tests_per_ray: f64::NAN,
+                    culled_percent: f64::NAN,
                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                 };
                 print_row(&row, args.json);
@@ -749,7 +780,7 @@ pub(crate) fn print_json_or(
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>7} {:>9}",
             r.scene,
             r.rays,
             r.isa,
@@ -761,6 +792,7 @@ fn print_row(r: &Row, json: bool) {
             r.threads,
             r.mrays_per_s,
             or_dash(r.tests_per_ray, |t| format!("{t:.2}")),
+            or_dash(r.culled_percent, |c| format!("{c:.1}%")),
             or_dash(r.speedup_vs_scalar, |x| format!("{x:.2}x")),
         )
     })

@@ -61,6 +61,7 @@ impl KdTree {
             bounds: Aabb::EMPTY,
             mesh_triangles: 0,
             stats: BuildStats::default(),
+            subspace: Default::default(),
         }
     }
 }
@@ -208,6 +209,7 @@ impl KdTreeBuilder {
         );
         tree.bounds = bounds;
         tree.mesh_triangles = n;
+        tree.subspace = Default::default();
         let build_time = started.elapsed();
         let (nodes, leaves, blocks) = (&tree.nodes, &tree.leaves, &tree.blocks);
         tree.stats = BuildStats {
