@@ -18,6 +18,7 @@ pub mod ray;
 pub mod raybox;
 pub mod slab;
 pub mod split_planes;
+pub mod subspace;
 pub mod triangle;
 
 pub use aabb::Aabb;

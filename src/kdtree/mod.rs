@@ -8,6 +8,7 @@ mod node;
 mod refs;
 mod sah;
 mod stats;
+mod subspace;
 mod triangle_boxes;
 
 use std::sync::OnceLock;
@@ -19,6 +20,7 @@ use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
 pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
+pub use subspace::{LeafMask, SubspaceMasks, SubspaceResolution};
 
 use crate::{Error, Result};
 
@@ -252,6 +254,8 @@ pub struct KdTree {
     stats: BuildStats,
     /// [`KdTree::triangle_boxes`], made on first use and dropped by a rebuild.
     triangle_boxes: OnceLock<Vec<BoxBlock>>,
+    /// Subspace-culling masks, built on first use.
+    subspace: subspace::SubspaceCache,
 }
 
 impl KdTree {

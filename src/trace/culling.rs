@@ -5,6 +5,7 @@ use std::str::FromStr;
 
 use kdbeam_kernels::beam::Stages;
 
+use super::subspace::Subspace;
 use crate::{Error, Result};
 
 /// The frustum planes a beam checks.
@@ -80,6 +81,8 @@ pub struct Culling {
     pub min_rays: u32,
     /// Ray-box culling of single rays (Nah et al.; [`Culling::with_raybox`]).
     pub raybox: bool,
+    /// Subspace culling of single rays ([`Subspace`]); packets ignore it.
+    pub subspace: Option<Subspace>,
 }
 
 impl Culling {
@@ -92,6 +95,7 @@ impl Culling {
         min_triangles: 0,
         min_rays: 0,
         raybox: false,
+        subspace: None,
     };
 
     /// Every stage, on every leaf visit: the fixed setting the benchmarks compare against.
@@ -103,6 +107,7 @@ impl Culling {
         min_triangles: 1,
         min_rays: 1,
         raybox: false,
+        subspace: None,
     };
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
@@ -117,6 +122,7 @@ impl Culling {
         min_triangles: 3,
         min_rays: 2,
         raybox: false,
+        subspace: None,
     };
 
     /// The named presets, for tables and sweeps.
@@ -185,6 +191,12 @@ impl Culling {
         }
     }
 
+    /// The same setting with another [`subspace`](Culling::subspace) stage.
+    #[must_use]
+    pub const fn with_subspace(self, subspace: Option<Subspace>) -> Culling {
+        Culling { subspace, ..self }
+    }
+
     /// The same setting with another [`min_rays`](Culling::min_rays).
     #[must_use]
     pub const fn with_min_rays(self, min_rays: u32) -> Culling {
@@ -199,6 +211,16 @@ impl Culling {
     #[must_use]
     pub const fn with_raybox(self, raybox: bool) -> Culling {
         Culling { raybox, ..self }
+    }
+
+    /// The stages single rays run (the rest of the setting is for packets): the
+    /// [`raybox`](Culling::raybox) and [`subspace`](Culling::subspace) stages, on
+    /// [`Culling::NONE`].
+    #[must_use]
+    pub const fn single_ray_stages(&self) -> Culling {
+        Culling::NONE
+            .with_subspace(self.subspace)
+            .with_raybox(self.raybox)
     }
 
     /// Is any beam built at all?
@@ -240,8 +262,10 @@ impl Culling {
     ///
     /// Of the bases that fit (`none`, `4plane`, `6plane`, `auto`) the one that needs the fewest
     /// options is named (`auto` before `6plane` on a tie), then `+aperture` when the aperture
-    /// test is on, `+raybox` when ray-box culling is (`none+raybox` is named `raybox`), then, in this order, each option whose value differs from the base's:
-    /// the frustum, the order, `min-triangles=N`, `min-rays=N`. So the presets print as their
+    /// test is on, then the single-ray stages (`+raybox`, then the subspace stage; on the
+    /// `none` base they stand alone: `raybox`, `raybox+subspace`), then, in this order, each
+    /// option whose value differs from the base's: the frustum, the order, `min-triangles=N`,
+    /// `min-rays=N`. So the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
     #[must_use]
@@ -272,13 +296,17 @@ impl Culling {
         if self.aperture {
             name.push_str("+aperture");
         }
-        if self.raybox {
+        let single = [
+            self.raybox.then_some("raybox"),
+            self.subspace.map(Subspace::name),
+        ];
+        for stage in single.into_iter().flatten() {
             if name == "none" {
                 name.clear();
             } else {
                 name.push('+');
             }
-            name.push_str("raybox");
+            name.push_str(stage);
         }
         for option in options {
             name.push('/');
@@ -342,8 +370,9 @@ impl fmt::Display for Culling {
 }
 
 /// What the culling grammar accepts, for error messages.
-const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto, or raybox alone), optionally \
-    +aperture and +raybox, then any of \
+const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, +raybox and \
+    one of +subspace|+subspace6|+subspace-exact|+subspace6-exact (single-ray stages alone are \
+    none with them: raybox, subspace, raybox+subspace), then any of \
     /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
     /min-rays=N (at most one of each kind): e.g. 6plane+aperture/masked/distance-first";
 
@@ -390,31 +419,30 @@ impl FromStr for Culling {
         let mut parts = lower.split('/');
         let mut stages = parts.next().unwrap_or_default().split('+');
         let base = stages.next().unwrap_or_default();
-        let (mut c, mut raybox) = if base == "raybox" {
-            (Culling::NONE, true)
-        } else {
-            let found = BASES.iter().find(|(name, _)| *name == base);
-            (
-                found
-                    .ok_or_else(|| bad(format!("unknown base {base:?}")))?
-                    .1,
-                false,
-            )
+        let subspace_named = |stage: &str| Subspace::ALL.into_iter().find(|s| s.name() == stage);
+        // A single-ray stage may stand as the base: it is then `none` with that stage.
+        let (mut c, first) = match BASES.iter().find(|(name, _)| *name == base) {
+            Some((_, c)) => (*c, None),
+            None if base == "raybox" || subspace_named(base).is_some() => {
+                (Culling::NONE, Some(base))
+            }
+            None => return Err(bad(format!("unknown base {base:?}"))),
         };
-        let mut aperture = false;
-        for stage in stages {
-            let seen = match stage {
-                "aperture" => &mut aperture,
-                "raybox" => &mut raybox,
+        let (mut aperture, mut raybox, mut subspace) = (false, false, None);
+        for stage in first.into_iter().chain(stages) {
+            let twice = match (stage, subspace_named(stage)) {
+                ("aperture", _) => std::mem::replace(&mut aperture, true),
+                ("raybox", _) => std::mem::replace(&mut raybox, true),
+                (_, Some(s)) => subspace.replace(s).is_some(),
                 _ => return Err(bad(format!("unknown stage {stage:?}"))),
             };
-            if *seen {
-                return Err(bad(format!("{stage} twice")));
+            if twice {
+                return Err(bad(format!("{stage} twice, or two subspace stages")));
             }
-            *seen = true;
         }
         c.aperture |= aperture;
         c.raybox = raybox;
+        c.subspace = subspace;
         let (mut frustum, mut order, mut triangles, mut rays) = (None, None, None, None);
         for option in parts {
             let (slot, value) = match option.split_once('=') {
@@ -457,9 +485,9 @@ mod tests {
 
     use super::*;
 
-    /// Every base, with and without the aperture test and ray-box culling.
+    /// Every base, with and without the aperture test, ray-box culling and subspace stages.
     fn stage_lists() -> Vec<String> {
-        BASES
+        let mut lists: Vec<String> = BASES
             .iter()
             .flat_map(|(name, _)| {
                 [
@@ -470,7 +498,15 @@ mod tests {
                 ]
             })
             .chain(["raybox".into(), "raybox+aperture".into()])
-            .collect()
+            .collect();
+        for s in Subspace::ALL {
+            lists.push(s.name().to_string());
+            lists.push(format!("auto+{}", s.name()));
+            lists.push(format!("6plane+aperture+{}", s.name()));
+            lists.push(format!("raybox+{}", s.name()));
+            lists.push(format!("auto+raybox+{}", s.name()));
+        }
+        lists
     }
 
     /// Every combination of options, each kind absent or set to each of its values.
@@ -505,6 +541,7 @@ mod tests {
                 let c: Culling = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
                 assert_eq!(c.aperture, stages.contains("+aperture"), "{text}");
                 assert_eq!(c.raybox, stages.contains("raybox"), "{text}");
+                assert_eq!(c.subspace.is_some(), stages.contains("subspace"), "{text}");
                 let name = c.to_string();
                 assert!(!name.contains(','), "{name}");
                 assert_eq!(
@@ -546,6 +583,14 @@ mod tests {
         for c in Culling::VARIANTS {
             assert_eq!(c.to_string().parse::<Culling>().unwrap(), c, "{c}");
         }
+        for s in Subspace::ALL {
+            let c = Culling::NONE.with_subspace(Some(s));
+            assert_eq!(c.to_string(), s.name());
+            assert_eq!(s.name().parse::<Culling>().unwrap(), c);
+            assert_eq!(format!("none+{}", s.name()).parse::<Culling>().unwrap(), c);
+            let auto = Culling::AUTO.with_subspace(Some(s));
+            assert_eq!(auto.to_string(), format!("auto+{}", s.name()));
+        }
         let c: Culling = "6plane/packet".parse().unwrap();
         assert!(c.interval_traversal() && c.to_string() == "6plane/packet");
         assert!(!Culling::NONE
@@ -584,6 +629,10 @@ mod tests {
             "raybox+raybox",
             "auto+raybox+raybox",
             "none+raybox+aperture+raybox",
+            "subspace+subspace6",
+            "none+subspace+subspace",
+            "subspace7",
+            "6plane+subspace-ideal",
             "6plane+aperture+aperture",
             "aperture",
             "6plane/",

@@ -9,7 +9,7 @@
 use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::{Hit, Ray};
 
-use super::{single_ray, Intersector, NoCull};
+use super::{single_ray, Intersector, NoCull, Tracer};
 use crate::kdtree::KdTree;
 
 /// The closest hit of `ray` in `tree` that `accept` accepts; [`Hit::NONE`] when there is none
@@ -55,4 +55,15 @@ pub fn any_hit(
     accept: impl FnMut(&Hit) -> bool,
 ) -> bool {
     single_ray::<true>(Dispatch::SCALAR, tree, intersector, ray, NoCull, accept).0
+}
+
+/// [`closest_hit`] on `tracer`'s tree, ISA, intersector and single-ray culling stages: the
+/// same hit, bit for bit.
+pub fn closest_hit_on(tracer: &Tracer<'_>, ray: &Ray, accept: impl FnMut(&Hit) -> bool) -> Hit {
+    tracer.single_filtered::<false>(ray, accept).1
+}
+
+/// [`any_hit`] on `tracer`'s tree, ISA, intersector and single-ray culling stages.
+pub fn any_hit_on(tracer: &Tracer<'_>, ray: &Ray, accept: impl FnMut(&Hit) -> bool) -> bool {
+    tracer.single_filtered::<true>(ray, accept).0
 }

@@ -11,6 +11,7 @@ mod raybox;
 pub mod reference;
 mod single;
 mod stream;
+mod subspace;
 pub mod synthetic;
 
 use std::marker::PhantomData;
@@ -26,6 +27,7 @@ pub use single::is_traceable;
 pub use single::RayCounters;
 use single::{KsTest, WatertightTest};
 pub(crate) use single::{NoCull, TriangleCull};
+pub use subspace::Subspace;
 
 use crate::kdtree::KdTree;
 use crate::{Error, Result};
@@ -152,8 +154,8 @@ impl<'t> Tracer<'t> {
         Tracer { packet, ..self }
     }
 
-    /// The same tracer with another culling setting: the beam stages cull packets,
-    /// [`Culling::raybox`] single rays.
+    /// The same tracer with another culling setting: the beam stages cull packets, the
+    /// [`raybox`](Culling::raybox) and [`subspace`](Culling::subspace) stages single rays.
     #[must_use]
     pub fn with_culling(self, culling: Culling) -> Self {
         Tracer { culling, ..self }
@@ -222,12 +224,45 @@ impl<'t> Tracer<'t> {
     /// One ray on this tracer's ISA: `ANY` for an any-hit query.
     #[inline]
     fn single<const ANY: bool>(&self, ray: &Ray) -> (bool, Hit, RayCounters) {
+        self.single_filtered::<ANY>(ray, |_| true)
+    }
+
+    /// [`Tracer::single`] counting only hits `accept` accepts, with the culling's single-ray
+    /// stages.
+    #[inline]
+    pub(crate) fn single_filtered<const ANY: bool>(
+        &self,
+        ray: &Ray,
+        accept: impl FnMut(&Hit) -> bool,
+    ) -> (bool, Hit, RayCounters) {
         let (dispatch, tree, intersector) = (self.dispatch, self.tree, self.intersector);
-        if self.culling.raybox {
-            let cull = raybox::RayBoxCull::new(tree.triangle_boxes());
-            single_ray::<ANY>(dispatch, tree, intersector, ray, cull, |_| true)
-        } else {
-            single_ray::<ANY>(dispatch, tree, intersector, ray, NoCull, |_| true)
+        match (self.culling.subspace, self.culling.raybox) {
+            (Some(s), false) => subspace::single_ray_culled::<ANY>(
+                dispatch,
+                tree,
+                intersector,
+                ray,
+                s,
+                NoCull,
+                accept,
+            ),
+            (Some(s), true) => {
+                let then = raybox::RayBoxCull::new(tree.triangle_boxes());
+                subspace::single_ray_culled::<ANY>(
+                    dispatch,
+                    tree,
+                    intersector,
+                    ray,
+                    s,
+                    then,
+                    accept,
+                )
+            }
+            (None, true) => {
+                let cull = raybox::RayBoxCull::new(tree.triangle_boxes());
+                single_ray::<ANY>(dispatch, tree, intersector, ray, cull, accept)
+            }
+            (None, false) => single_ray::<ANY>(dispatch, tree, intersector, ray, NoCull, accept),
         }
     }
 

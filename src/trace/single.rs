@@ -56,6 +56,32 @@ pub(crate) trait TriangleCull {
     ) -> u32;
 }
 
+/// Two stages in turn: a leaf is entered when both enter it, and a triangle kept when both
+/// keep it (the second is asked only about what the first keeps).
+impl<A: TriangleCull, B: TriangleCull> TriangleCull for (A, B) {
+    #[inline(always)]
+    fn enter(&mut self, ray: &Ray, leaf: &LeafEntry<'_>) -> bool {
+        self.0.enter(ray, leaf) && self.1.enter(ray, leaf)
+    }
+
+    #[inline(always)]
+    fn lanes<L: Lanes>(
+        &mut self,
+        l: L,
+        ray: &Ray,
+        block: usize,
+        first: usize,
+        valid: u32,
+        tmax: f32,
+    ) -> u32 {
+        let kept = self.0.lanes(l, ray, block, first, valid, tmax);
+        if kept == 0 {
+            return 0;
+        }
+        self.1.lanes(l, ray, block, first, kept, tmax)
+    }
+}
+
 /// No culling: every leaf is entered and every triangle tested.
 pub(crate) struct NoCull;
 

@@ -64,11 +64,12 @@ pub(crate) struct BenchArgs {
     #[arg(long, value_delimiter = ',')]
     packet: Vec<usize>,
     /// Culling settings to measure, comma separated: none, 4plane, 6plane or auto, `+aperture`
-    /// to add the corner-ray test, `+raybox` for ray-box culling of single rays (`raybox`
-    /// alone: only that), then options after `/`: masked, maskless, adaptive, packet
-    /// (whole-packet traversal), distance-first, aperture-first; e.g.
-    /// `none,auto,6plane+aperture/masked/distance-first`. Single rays (`--packet 1`) run one
-    /// row with and one without ray-box culling, as the settings given ask.
+    /// to add the corner-ray test, `+raybox` for ray-box culling and `+subspace`,
+    /// `+subspace6`, `+subspace-exact` or `+subspace6-exact` for subspace culling of single
+    /// rays (alone: none with them, e.g. `raybox+subspace`), then
+    /// options after `/`: masked, maskless, adaptive, packet (whole-packet traversal),
+    /// distance-first, aperture-first; e.g. `none,auto,6plane+aperture/masked/distance-first`.
+    /// Single-ray rows (`--packet 1`) run only the single-ray stages.
     #[arg(long, value_delimiter = ',', default_value = "none,auto")]
     culling: Vec<Culling>,
     /// SAH cost ratios of the kd-trees to measure, comma separated: one tree per value.
@@ -133,6 +134,9 @@ pub(crate) struct Row {
     pub(crate) mrays_per_s: f64,
     /// NaN (JSON `null`) where not counted.
     tests_per_ray: f64,
+    /// Share of the ray–triangle tests a single-ray culling stage removed, in percent; NaN
+    /// (JSON `null`) for packets and Embree.
+    culled_percent: f64,
     /// NaN (JSON `null`) when the run measures no scalar single-ray path (`--packet` without 1,
     /// or `--isa` without scalar).
     speedup_vs_scalar: f64,
@@ -201,7 +205,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     };
     if !args.json {
         println!(
-            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9} {:>9} {:>7} {:>9}",
             "scene",
             "rays",
             "isa",
@@ -213,6 +217,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             "threads",
             "Mrays/s",
             "tests/ray",
+            "culled",
             "vs scalar"
         );
     }
@@ -231,16 +236,17 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
                 for layout in rays.kdbeam_layouts(packet, &args.layout)? {
-                    // Single rays know only ray-box culling: one row per ISA for each of
-                    // its settings given, the first culling of each standing for it.
-                    let cullings = if packet == 1 {
-                        single_ray_cullings(&args.culling)
-                    } else {
-                        args.culling.clone()
-                    };
+                    // Single rays run only the culling's single-ray stages: a row per distinct one.
+                    let mut single = Vec::new();
+                    for c in args.culling.iter().map(Culling::single_ray_stages) {
+                        if !single.contains(&c) {
+                            single.push(c);
+                        }
+                    }
+                    let cullings = if packet == 1 { &single } else { &args.culling };
                     for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
                         for &isa in &isas {
-                            for &culling in &cullings {
+                            for &culling in cullings {
                                 let mut tracer = Tracer::new(&tree)
                                     .with_intersector(args.intersector)
                                     .with_isa(isa)?
@@ -248,10 +254,19 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                 if packet > 1 {
                                     tracer = tracer.with_packet(packet_shape(packet)?);
                                 }
+                                // Masks, tables and boxes are built on first use: not in
+                                // the timing.
+                                if let Some(stage) = culling.subspace {
+                                    stage.prepare(&tree);
+                                }
+                                if culling.raybox {
+                                    let _ = tree.triangle_boxes();
+                                }
                                 let (seconds, tests) = pool.install(|| {
                                     measure(args.reps, &tracer, &layout, args.rays.any_hit())
                                 });
                                 let mrays = layout.len() as f64 / seconds / 1e6;
+                                let culled = culled_percent(&tracer, &layout, args.rays.any_hit());
                                 // The first single-ray setting given is the baseline.
                                 if packet == 1 && isa == Isa::Scalar && scalar.is_none() {
                                     *scalar = Some(mrays);
@@ -263,16 +278,13 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     packet,
                                     layout: layout.name(args.rays),
                                     intersector: args.intersector.name(),
-                                    culling: if packet == 1 {
-                                        single_ray_culling_name(culling).into()
-                                    } else {
-                                        culling.name()
-                                    },
+                                    culling: culling.name(),
                                     ci_over_ct: Some(ci_over_ct),
                                     context: None,
                                     threads: *threads,
                                     mrays_per_s: mrays,
                                     tests_per_ray: tests,
+                                    culled_percent: culled,
                                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                                 };
                                 print_row(&row, args.json);
@@ -291,27 +303,6 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
         all.extend(rows);
     }
     Ok(all)
-}
-
-/// The settings that differ for single rays, in the order given: the first of `cullings`
-/// without ray-box culling and the first with it.
-fn single_ray_cullings(cullings: &[Culling]) -> Vec<Culling> {
-    let mut out: Vec<Culling> = Vec::new();
-    for &c in cullings {
-        if !out.iter().any(|o| o.raybox == c.raybox) {
-            out.push(c);
-        }
-    }
-    out
-}
-
-/// What of `culling` single rays run: `raybox` or `none`.
-fn single_ray_culling_name(culling: Culling) -> &'static str {
-    if culling.raybox {
-        "raybox"
-    } else {
-        "none"
-    }
 }
 
 /// The tree options of `args` with the SAH cost ratio `ci_over_ct`.
@@ -549,6 +540,26 @@ pub(crate) fn measure(
     (seconds, tests as f64 / n.max(1) as f64)
 }
 
+/// For single rays, the share (percent) of ray–triangle tests `tracer`'s single-ray culling
+/// removes, counted in one untimed pass; NaN for packets.
+fn culled_percent(tracer: &Tracer<'_>, rays: &KdbeamRays, any: bool) -> f64 {
+    let KdbeamRays::Single(rays) = rays else {
+        return f64::NAN;
+    };
+    let (tests, culled) = rays
+        .par_iter()
+        .map(|r| {
+            let c = if any {
+                tracer.occluded_counted(r).1
+            } else {
+                tracer.intersect_counted(r).1
+            };
+            (c.tests, c.culled)
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    100.0 * culled as f64 / (tests + culled).max(1) as f64
+}
+
 /// Each packet's share of `out`, cut before timing.
 fn split_per_packet<'a, T>(packets: &[RayPacket], out: &'a mut [T]) -> Vec<&'a mut [T]> {
     let mut slots = Vec::with_capacity(packets.len());
@@ -621,6 +632,7 @@ fn embree_rows(
                     threads: *threads,
                     mrays_per_s: mrays,
                     tests_per_ray: f64::NAN,
+                    culled_percent: f64::NAN,
                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                 };
                 print_row(&row, args.json);
@@ -774,7 +786,7 @@ pub(crate) fn print_json_or(
 fn print_row(r: &Row, json: bool) {
     print_json_or(r, json, || {
         format!(
-            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>9}",
+            "{:<16} {:<8} {:<8} {:>6} {:<11} {:<22} {:>6} {:<10} {:>7} {:>9.2} {:>9} {:>7} {:>9}",
             r.scene,
             r.rays,
             r.isa,
@@ -786,6 +798,7 @@ fn print_row(r: &Row, json: bool) {
             r.threads,
             r.mrays_per_s,
             or_dash(r.tests_per_ray, |t| format!("{t:.2}")),
+            or_dash(r.culled_percent, |c| format!("{c:.1}%")),
             or_dash(r.speedup_vs_scalar, |x| format!("{x:.2}x")),
         )
     })

@@ -63,6 +63,7 @@ impl KdTree {
             mesh_triangles: 0,
             stats: BuildStats::default(),
             triangle_boxes: OnceLock::new(),
+            subspace: Default::default(),
         }
     }
 }
@@ -211,6 +212,7 @@ impl KdTreeBuilder {
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         tree.triangle_boxes = OnceLock::new();
+        tree.subspace = Default::default();
         let build_time = started.elapsed();
         let (nodes, leaves, blocks) = (&tree.nodes, &tree.leaves, &tree.blocks);
         tree.stats = BuildStats {
