@@ -102,9 +102,15 @@ impl TriangleCull for RayBoxCull<'_> {
             let count = (self.leaf_len - (block - self.leaf_first) * BLOCK).min(BLOCK);
             let boxes = &self.boxes[block];
             self.kept_block = block;
-            self.kept = (0..count)
-                .step_by(L::WIDTH)
-                .fold(0, |m, f| m | overlapping(l, &self.segment, boxes, f) << f);
+            // A plain loop, not an iterator fold: a fold's closure may stay out of line,
+            // outside the ISA's target features.
+            let mut kept = 0;
+            let mut f = 0;
+            while f < count {
+                kept |= overlapping(l, &self.segment, boxes, f) << f;
+                f += L::WIDTH;
+            }
+            self.kept = kept;
         }
         valid & self.kept >> first
     }
