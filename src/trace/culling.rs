@@ -79,7 +79,8 @@ pub struct Culling {
     pub min_triangles: u32,
     /// Leaf visits with fewer active rays are tested unculled.
     pub min_rays: u32,
-    /// Ray-box culling of single rays (Nah et al.; [`Culling::with_raybox`]).
+    /// Ray-box culling of single rays and of packets' leaf visits of few rays (Nah et al.;
+    /// [`Culling::with_raybox`]).
     pub raybox: bool,
     /// Subspace culling of single rays ([`Subspace`]); packets ignore it.
     pub subspace: Option<Subspace>,
@@ -203,11 +204,13 @@ impl Culling {
         Culling { min_rays, ..self }
     }
 
-    /// The same setting with ray-box culling of single rays on or off: in a leaf of at least
-    /// three triangles, a ray's segment there (up to its closest hit so far) is boxed and
-    /// tested against a box per triangle clipped to the leaf (Nah, Park, Kang & Han, *Ray-Box
-    /// Culling for Tree Structures*, J. Inf. Sci. Eng.), before any ray–triangle test. The
-    /// tree's boxes are built on first use ([`crate::KdTree::triangle_boxes`]).
+    /// The same setting with ray-box culling on or off: in a leaf of at least three triangles,
+    /// a ray's segment there (up to its closest hit so far) is boxed and tested against a box
+    /// per triangle clipped to the leaf (Nah, Park, Kang & Han, *Ray-Box Culling for Tree
+    /// Structures*, J. Inf. Sci. Eng.), before any ray–triangle test. Single rays do this in
+    /// every such leaf; packets in the per-ray traversal's leaf visits that build no beam and
+    /// hold at most four active rays, with one box around those rays' segments. The tree's
+    /// boxes are built on first use ([`crate::KdTree::triangle_boxes`]).
     #[must_use]
     pub const fn with_raybox(self, raybox: bool) -> Culling {
         Culling { raybox, ..self }
@@ -385,7 +388,7 @@ impl FromStr for Culling {
     ///
     /// - The base: `none`, `4plane`, `6plane` (fixed planes on every leaf visit, maskless) or
     ///   `auto` ([`Culling::AUTO`]); then `+aperture` adds the aperture test and `+raybox`
-    ///   ray-box culling of single rays ([`Culling::with_raybox`]), in either order; `raybox`
+    ///   ray-box culling ([`Culling::with_raybox`]), in either order; `raybox`
     ///   alone is `none+raybox`. Every preset of [`Culling::PRESETS`] is such a name
     ///   (`4plane+aperture`, `6plane+aperture`, `auto+raybox`).
     /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`), the order

@@ -75,6 +75,7 @@ impl LaneTask for LeafTask<'_, '_> {
                     mask: all,
                     packet_mask: all,
                     scene_bound: self.leaf.scene_bound,
+                    boxes: None,
                 },
                 &mut counters,
             );

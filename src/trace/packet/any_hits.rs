@@ -53,7 +53,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
         let mut open = visit.mask;
         let mut tests = 0u64;
         let beam = leaf_beam(l, p, &visit, &self.culling, None, counters);
-        let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.tmax, counters);
         #[allow(clippy::while_let_on_iterator)]
         while let Some((first, s)) = blocks.next() {
             for g in 0..group_count::<L>(p.len()) {

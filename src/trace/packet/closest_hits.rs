@@ -71,7 +71,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
             Some((&self.hits.t, self.has_hit)),
             counters,
         );
-        let mut blocks = SurvivorBlocks::new(beam, &visit, counters);
+        let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.hits.t, counters);
         // `next` is called directly: a `for` loop goes through `&mut I`'s forwarding `next`,
         // which is only `#[inline]` and may stay out of the ISA's entry point.
         #[allow(clippy::while_let_on_iterator)]

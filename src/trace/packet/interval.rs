@@ -178,6 +178,7 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
                     mask: active,
                     packet_mask: live_mask,
                     scene_bound,
+                    boxes: None,
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
                 latest = latest_best(l, live_mask & !done, visitor.best_t(), groups);

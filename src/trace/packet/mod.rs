@@ -24,6 +24,7 @@ mod per_ray;
 mod stack;
 mod visit;
 
+use kdbeam_kernels::raybox::BoxBlock;
 use kdbeam_kernels::{HitPacket, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use any_hits::AnyHits;
@@ -75,6 +76,8 @@ pub(crate) struct Traversal<'a, L, V> {
     pub visitor: &'a mut V,
     /// Where the work done is added.
     pub counters: &'a mut PacketCounters,
+    /// The tree's triangle boxes, when ray-box culling is on.
+    pub boxes: Option<&'a [BoxBlock]>,
 }
 
 /// Traverses `q.tree` with the traceable rays of `q.active`, one sub-packet per octant of
@@ -94,6 +97,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
         packet: p,
         visitor,
         counters: &mut *q.counters,
+        boxes: q.culling.raybox.then(|| q.tree.triangle_boxes()),
     };
     let octants = octant_masks(l, p, traceable_mask(l, p, q.active));
     for (octant, mask) in octants.into_iter().enumerate() {

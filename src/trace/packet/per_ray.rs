@@ -4,7 +4,7 @@
 use kdbeam_kernels::groups::{group_bits, group_count, load_axes};
 use kdbeam_kernels::{slab, LaneF32, LaneMask, Lanes};
 
-use super::visit::{visit_leaf, LeafVisit, PacketVisitor};
+use super::visit::{visit_leaf, LeafBoxes, LeafVisit, PacketVisitor};
 use super::{Stack, Traversal, N};
 use crate::trace::single::{root_bounds, split_intervals, INTERVAL_EPS, STACK_DEPTH};
 
@@ -18,7 +18,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     stack: &mut Stack,
 ) {
     let (l, tree, p) = (t.l, t.tree, t.packet);
-    let (visitor, counters) = (&mut *t.visitor, &mut *t.counters);
+    let (visitor, counters, boxes) = (&mut *t.visitor, &mut *t.counters, t.boxes);
     let groups = group_count::<L>(p.len());
     let mut inv = [[0f32; N]; 3];
     let mut err = [[0f32; N]; 3];
@@ -133,6 +133,11 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                     mask,
                     packet_mask,
                     scene_bound,
+                    boxes: boxes.map(|boxes| LeafBoxes {
+                        boxes: &boxes[leaf.first as usize..],
+                        t_enter: &*t_enter,
+                        t_exit: &*t_exit,
+                    }),
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
             }

@@ -2,12 +2,30 @@
 //! triangles that survive the leaf's beam.
 
 use kdbeam_kernels::beam::{Beam, Survivors};
+use kdbeam_kernels::raybox::{overlapping, segment_box, BoxBlock};
 use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{Aabb, Lanes, RayPacket, TriangleBlock};
+use kdbeam_kernels::{Aabb, Lanes, RayPacket, TriangleBlock, Vec3};
 
 use super::{Column, PacketCounters, Stamp};
 use crate::kdtree::LeafTriangles;
 use crate::trace::culling::Culling;
+use crate::trace::raybox::RAYBOX_MIN_TRIANGLES;
+
+/// Leaf visits of at most this many active rays and no beam are culled ray-box style (when
+/// [`Culling::raybox`] is on): the box around more rays' segments grows too large to cull.
+pub(crate) const RAYBOX_MAX_RAYS: u32 = 4;
+
+/// What ray-box culling reads in a leaf: the boxes of its triangles and each ray's interval in
+/// its cell. Only the per-ray traversal has per-ray cell intervals, so only it culls this way.
+#[derive(Clone, Copy)]
+pub(crate) struct LeafBoxes<'a> {
+    /// The boxes of the leaf's blocks, from [`crate::KdTree::triangle_boxes`].
+    pub boxes: &'a [BoxBlock],
+    /// Where each ray enters the leaf's cell.
+    pub t_enter: &'a Column,
+    /// Where each ray leaves it.
+    pub t_exit: &'a Column,
+}
 
 /// What a packet entering a leaf knows.
 pub(crate) struct LeafVisit<'a> {
@@ -21,6 +39,8 @@ pub(crate) struct LeafVisit<'a> {
     pub packet_mask: u64,
     /// The largest absolute coordinate of the scene.
     pub scene_bound: f32,
+    /// For ray-box culling of visits of few rays, when it is on.
+    pub boxes: Option<LeafBoxes<'a>>,
 }
 
 /// What a packet traversal does in each leaf.
@@ -92,11 +112,52 @@ pub(super) fn leaf_beam<L: Lanes>(
     beam
 }
 
+/// The box around the segments of the rays of `mask` in the leaf's cell, each up to its best
+/// hit so far (`best`), for ray-box culling (Nah et al.).
+///
+/// Conservative as [`RayBoxCull`](crate::trace::raybox::RayBoxCull) is for one ray: a triangle
+/// whose box misses every ray's segment holds no hit of these rays in this cell before their
+/// best, and a hit outside the cell is found in the cell that holds it, which the per-ray
+/// traversal visits (it passes a ray's cell only after the ray's closest hit).
+#[inline(always)]
+fn segments_box(p: &RayPacket, mut mask: u64, cells: &LeafBoxes<'_>, best: &Column) -> Aabb {
+    let mut b = Aabb::EMPTY;
+    while mask != 0 {
+        let r = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let at = |c: &[Column; 3]| Vec3::new(c[0][r], c[1][r], c[2][r]);
+        let end = cells.t_exit[r].min(best[r]);
+        b = b.union(segment_box(
+            at(&p.origin),
+            at(&p.direction),
+            cells.t_enter[r],
+            end,
+        ));
+    }
+    b
+}
+
+/// Of the first `count` triangles of a block, those whose box overlaps `segments`.
+#[inline(always)]
+fn overlapping_in_block<L: Lanes>(l: L, segments: &Aabb, boxes: &BoxBlock, count: usize) -> u32 {
+    let mut kept = 0;
+    let mut f = 0;
+    while f < count {
+        kept |= overlapping(l, segments, boxes, f) << f;
+        f += L::WIDTH;
+    }
+    kept
+}
+
 /// The blocks of up to [`BLOCK`] triangles of a leaf that hold triangles to test, culled by a
-/// beam when there is one: `(first triangle, survivors)`. An iterator rather than a callback, so
+/// beam when there is one, else by ray-box culling when it is on and the visit has few rays:
+/// `(first triangle, survivors)`. An iterator rather than a callback, so
 /// that everything stays inlined into the ISA's `#[target_feature]` entry point.
 pub(super) struct SurvivorBlocks<'v, L: Lanes> {
+    l: L,
     beam: Option<Beam<L>>,
+    /// Without a beam, the box of the rays' segments and the leaf's triangle boxes.
+    raybox: Option<(Aabb, &'v [BoxBlock])>,
     triangles: LeafTriangles<'v>,
     next: usize,
     rays: u64,
@@ -111,16 +172,33 @@ pub(super) struct SurvivorBlocks<'v, L: Lanes> {
 impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
     #[inline(always)]
     pub(super) fn new(
+        l: L,
         beam: Option<Beam<L>>,
+        p: &RayPacket,
         visit: &LeafVisit<'v>,
+        best: &Column,
         counters: &mut PacketCounters,
     ) -> Self {
         counters.beams += u64::from(beam.is_some());
+        let rays = visit.mask.count_ones();
+        let raybox = match (&beam, &visit.boxes) {
+            (None, Some(cells))
+                if rays <= RAYBOX_MAX_RAYS && visit.triangles.len() >= RAYBOX_MIN_TRIANGLES =>
+            {
+                let start = Stamp::now();
+                let segments = segments_box(p, visit.mask, cells, best);
+                start.add_to(&mut counters.cycles.culling);
+                Some((segments, cells.boxes))
+            }
+            _ => None,
+        };
         SurvivorBlocks {
+            l,
             beam,
+            raybox,
             triangles: visit.triangles,
             next: 0,
-            rays: u64::from(visit.mask.count_ones()),
+            rays: u64::from(rays),
             tests: 0,
             #[cfg(feature = "stats")]
             culled: Default::default(),
@@ -159,10 +237,19 @@ impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
                     start.add_to(&mut self.cull_cycles);
                     s
                 }
-                None => Survivors {
-                    mask: u64::from(TriangleBlock::valid_bits(count)),
-                    ..Survivors::default()
-                },
+                None => {
+                    let mut mask = TriangleBlock::valid_bits(count);
+                    if let Some((segments, boxes)) = &self.raybox {
+                        let start = Stamp::now();
+                        mask &=
+                            overlapping_in_block(self.l, segments, &boxes[first / BLOCK], count);
+                        start.add_to(&mut self.cull_cycles);
+                    }
+                    Survivors {
+                        mask: u64::from(mask),
+                        ..Survivors::default()
+                    }
+                }
             };
             #[cfg(feature = "stats")]
             {
