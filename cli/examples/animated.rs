@@ -8,7 +8,8 @@
 //!
 //! Each frame moves every instance (`Scene::set_transform`), commits (the top-level BVH is
 //! rebuilt, the mesh's kd-tree kept), traces the camera's primary rays in 8×8 pixel tiles
-//! (`Scene::intersect_packet`) and a shadow ray per hit to a point light (`Scene::occluded`),
+//! (`Scene::intersect_packet`) and a shadow ray per hit to a point light, each tile's shadow
+//! rays as one packet (`Scene::occluded_packet`; with `--single-rays`, every ray one by one),
 //! on all threads (rayon), writes the frame as a PNG and prints the time of each step. The
 //! mesh is the bunny when `KDBEAM_SCENES` holds it, else a built-in icosphere (`--mesh` picks
 //! another: a shared mesh's name, `builtin:NAME[:SIZE]` or an OBJ path).
@@ -17,9 +18,9 @@
 //! Embree sets up moving instances — one high-quality mesh scene instanced under each
 //! transform, the ground instanced once, the top level `RTC_BUILD_QUALITY_LOW` with
 //! `RTC_SCENE_FLAG_DYNAMIC` — and traced on the same rays in the same run: primary rays by
-//! rtcIntersect16 on 4×4 tiles with the `COHERENT` context, shadow rays by the fastest of
-//! rtcOccluded1, 8 and 16 with the `INCOHERENT` context. The hits are compared (hit or miss,
-//! instance, `t`).
+//! rtcIntersect16 on 4×4 tiles with the `COHERENT` context, shadow rays (in kdbeam's tile
+//! order) by the fastest of rtcOccluded1, 8 and 16 with the `INCOHERENT` context. The hits
+//! are compared (hit or miss, instance, `t`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -60,7 +61,8 @@ struct Args {
     /// Grid side of the terrain (2·side² triangles).
     #[arg(long, default_value_t = 512)]
     terrain: u32,
-    /// Trace primary rays one by one (`Scene::intersect`) instead of in 8×8 tile packets.
+    /// Trace every ray one by one (`Scene::intersect`, `Scene::occluded`) instead of in 8×8
+    /// tile packets.
     #[arg(long)]
     single_rays: bool,
     /// Also trace the same scene with Embree (needs `--features embree`).
@@ -322,41 +324,71 @@ fn trace(scene: &Scene, camera: &Camera, primary: &Primary, light: Vec3, offset:
             (hits, t.elapsed().as_secs_f64())
         }
     };
-    // Shadow rays in pixel-tile order, so that neighbouring rays share cached nodes. They are
-    // traced one by one: from a tile's points they scatter over the terrain's leaves, where a
-    // packet's leaf visits would hold few rays each.
-    let order: Vec<usize> = match primary {
+    // A shadow ray per hit, in pixel-tile order: with primary packets, each tile's shadow rays
+    // are one packet, as coherent as its camera rays since they all end at the light.
+    let groups: Vec<Vec<usize>> = match primary {
         Primary::Packets(_, tiles) => tiles
             .iter()
-            .flat_map(|&(x0, y0, cols, rows)| {
-                (y0..y0 + rows).flat_map(move |y| {
-                    (x0..x0 + cols).map(move |x| y as usize * width + x as usize)
-                })
+            .map(|&(x0, y0, cols, rows)| {
+                (y0..y0 + rows)
+                    .flat_map(|y| (x0..x0 + cols).map(move |x| y as usize * width + x as usize))
+                    .collect()
             })
             .collect(),
-        Primary::Rays(rays) => (0..rays.len()).collect(),
+        Primary::Rays(rays) => (0..rays.len())
+            .step_by(256)
+            .map(|i| (i..(i + 256).min(rays.len())).collect())
+            .collect(),
     };
-    let shadow_rays: Vec<(u32, Ray)> = order
-        .par_iter()
-        .filter_map(|&i| {
-            let h = &hits[i];
-            let ray = camera.ray((i % width) as u32, (i / width) as u32);
-            let n = scene.normal(h)?;
-            let n = if n.dot(ray.direction) > 0.0 { -n } else { n };
-            let origin = ray.at(h.t) + offset * n;
-            let to_light = Ray {
+    let shadow_ray = |i: usize| {
+        let h = &hits[i];
+        let ray = camera.ray((i % width) as u32, (i / width) as u32);
+        let n = scene.normal(h)?;
+        let n = if n.dot(ray.direction) > 0.0 { -n } else { n };
+        let origin = ray.at(h.t) + offset * n;
+        Some((
+            i as u32,
+            Ray {
                 tmax: 1.0,
                 ..Ray::new(origin, light - origin)
-            };
-            Some((i as u32, to_light))
-        })
+            },
+        ))
+    };
+    let grouped: Vec<Vec<(u32, Ray)>> = groups
+        .par_iter()
+        .map(|g| g.iter().filter_map(|&i| shadow_ray(i)).collect())
         .collect();
-    let t = Instant::now();
-    let blocked: Vec<bool> = shadow_rays
-        .par_chunks(256)
-        .flat_map_iter(|chunk| chunk.iter().map(|(_, r)| scene.occluded(r)))
-        .collect();
-    let shadow_s = t.elapsed().as_secs_f64();
+    let shadow_rays: Vec<(u32, Ray)> = grouped.iter().flatten().copied().collect();
+    let (blocked, shadow_s): (Vec<bool>, f64) = match primary {
+        Primary::Packets(..) => {
+            // Packed before the clock starts, as Embree's rays are.
+            let packets: Vec<RayPacket> = grouped
+                .iter()
+                .filter(|g| !g.is_empty())
+                .map(|g| RayPacket::from_rays(&g.iter().map(|(_, r)| *r).collect::<Vec<_>>()))
+                .collect();
+            let t = Instant::now();
+            let masks: Vec<u64> = packets
+                .par_iter()
+                .map(|p| scene.occluded_packet(p, p.full_mask(), &Query::default()))
+                .collect();
+            let seconds = t.elapsed().as_secs_f64();
+            let blocked = packets
+                .iter()
+                .zip(masks)
+                .flat_map(|(p, m)| (0..p.len()).map(move |i| m >> i & 1 == 1))
+                .collect();
+            (blocked, seconds)
+        }
+        Primary::Rays(_) => {
+            let t = Instant::now();
+            let blocked = shadow_rays
+                .par_chunks(256)
+                .flat_map_iter(|chunk| chunk.iter().map(|(_, r)| scene.occluded(r)))
+                .collect();
+            (blocked, t.elapsed().as_secs_f64())
+        }
+    };
     Traced {
         hits,
         shadow_rays,
@@ -482,7 +514,9 @@ mod side_by_side {
             let t = Instant::now();
             self.scene.trace(&mut primary, Context::Coherent);
             let primary_s = t.elapsed().as_secs_f64();
-            // Embree at its best on the shadow rays: the fastest of rtcOccluded1, 8 and 16.
+            // Embree at its best on the shadow rays (kdbeam's tile order, the `INCOHERENT`
+            // context of secondary rays): the fastest of rtcOccluded1, 8 and 16. (With the
+            // `COHERENT` context, rtcOccluded16 did not return within a minute here.)
             let rays: Vec<Ray> = kdbeam.shadow_rays.iter().map(|(_, r)| *r).collect();
             let mut best: Option<(f64, usize, EmbreeRays)> = None;
             for width in SHADOW_WIDTHS {
