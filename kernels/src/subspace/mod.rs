@@ -117,6 +117,29 @@ pub const fn cell_index<const R: usize>(x: usize, y: usize, z: usize) -> usize {
     x + R * (y + R * z)
 }
 
+/// A small deterministic generator (xorshift) for the sampling tests of the submodules.
+#[cfg(test)]
+mod test_rng {
+    use glam::Vec3;
+
+    pub(super) struct Rng(pub u64);
+
+    impl Rng {
+        /// Uniform in `[0, 1)`, 24 bits.
+        pub fn next(&mut self) -> f32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        /// Uniform in the cube `[lo, hi)³`.
+        pub fn point(&mut self, lo: f32, hi: f32) -> Vec3 {
+            Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + lo
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

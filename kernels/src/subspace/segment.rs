@@ -220,21 +220,9 @@ mod tests {
     use std::{vec, vec::Vec};
 
     use super::*;
+    use crate::subspace::test_rng::Rng;
     use crate::subspace::Mask6;
     use crate::Aabb;
-
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn point(&mut self, lo: f32, hi: f32) -> Vec3 {
-            Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + lo
-        }
-    }
 
     /// Every cell a point lies in (two on a boundary), grid units.
     fn cells_of(u: Vec3, r: usize) -> Vec<usize> {

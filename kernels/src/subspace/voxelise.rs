@@ -101,22 +101,9 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
+    use crate::subspace::test_rng::Rng;
     use crate::subspace::Mask6;
     use crate::Aabb;
-
-    /// A small deterministic generator (xorshift), for the sampling tests.
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn point(&mut self, lo: f32, hi: f32) -> Vec3 {
-            Vec3::new(self.next(), self.next(), self.next()) * (hi - lo) + lo
-        }
-    }
 
     /// The cells a point lies in (all of them when it is on a boundary).
     fn cells_of(grid: &Grid, r: usize, p: Vec3) -> impl Iterator<Item = usize> + '_ {
