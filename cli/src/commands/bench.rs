@@ -262,11 +262,10 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                 if culling.raybox {
                                     let _ = tree.triangle_boxes();
                                 }
-                                let (seconds, tests) = pool.install(|| {
+                                let m = pool.install(|| {
                                     measure(args.reps, &tracer, &layout, args.rays.any_hit())
                                 });
-                                let mrays = layout.len() as f64 / seconds / 1e6;
-                                let culled = culled_percent(&tracer, &layout, args.rays.any_hit());
+                                let mrays = layout.len() as f64 / m.seconds / 1e6;
                                 // The first single-ray setting given is the baseline.
                                 if packet == 1 && isa == Isa::Scalar && scalar.is_none() {
                                     *scalar = Some(mrays);
@@ -283,8 +282,8 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                     context: None,
                                     threads: *threads,
                                     mrays_per_s: mrays,
-                                    tests_per_ray: tests,
-                                    culled_percent: culled,
+                                    tests_per_ray: m.tests_per_ray,
+                                    culled_percent: m.culled_percent,
                                     speedup_vs_scalar: scalar.map_or(f64::NAN, |s| mrays / s),
                                 };
                                 print_row(&row, args.json);
@@ -451,43 +450,47 @@ impl RaysOf {
     }
 }
 
-/// Median seconds of `tracer` on `rays` over `reps` timed runs after one untimed run, and
-/// ray–triangle tests per ray: closest hits, or occlusion when `any` (shadow and AO rays).
-pub(crate) fn measure(
-    reps: usize,
-    tracer: &Tracer<'_>,
-    rays: &KdbeamRays,
-    any: bool,
-) -> (f64, f64) {
+/// What [`measure`] found: the median seconds, ray–triangle tests per ray, and for single rays
+/// the share (percent) of tests their culling removed (NaN for packets and streams).
+pub(crate) struct Measured {
+    pub seconds: f64,
+    pub tests_per_ray: f64,
+    pub culled_percent: f64,
+}
+
+/// Median seconds of `tracer` on `rays` over `reps` timed runs after one untimed run, and the
+/// untimed run's counts: closest hits, or occlusion when `any` (shadow and AO rays).
+pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: bool) -> Measured {
     let n = rays.len();
     let mut hits = vec![Hit::NONE; n];
     let mut occluded = vec![false; n];
-    let (seconds, tests) = match rays {
+    let sum = |a: (u64, u64), b: (u64, u64)| (a.0 + b.0, a.1 + b.1);
+    let (seconds, (tests, culled)) = match rays {
         KdbeamRays::Single(rays) if any => warm_then_median(reps, || {
             let start = Instant::now();
-            let tests = rays
+            let counts = rays
                 .par_iter()
                 .zip(occluded.par_iter_mut())
                 .map(|(r, o)| {
                     let (hit, c) = tracer.occluded_counted(r);
                     *o = hit;
-                    c.tests
+                    (c.tests, c.culled)
                 })
-                .sum();
-            (start.elapsed().as_secs_f64(), tests)
+                .reduce(|| (0, 0), sum);
+            (start.elapsed().as_secs_f64(), counts)
         }),
         KdbeamRays::Single(rays) => warm_then_median(reps, || {
             let start = Instant::now();
-            let tests = rays
+            let counts = rays
                 .par_iter()
                 .zip(hits.par_iter_mut())
                 .map(|(r, h)| {
                     let (hit, c) = tracer.intersect_counted(r);
                     *h = hit;
-                    c.tests
+                    (c.tests, c.culled)
                 })
-                .sum();
-            (start.elapsed().as_secs_f64(), tests)
+                .reduce(|| (0, 0), sum);
+            (start.elapsed().as_secs_f64(), counts)
         }),
         KdbeamRays::Stream(rays, bounds) => warm_then_median(reps, || {
             let start = Instant::now();
@@ -497,7 +500,7 @@ pub(crate) fn measure(
                 intersect_sorted(tracer, rays, bounds, &mut hits)
             }
             .expect("one output per ray");
-            (start.elapsed().as_secs_f64(), counters.tests)
+            (start.elapsed().as_secs_f64(), (counters.tests, 0))
         }),
         KdbeamRays::Packets(packets) if any => {
             let mut slots = split_per_packet(packets, &mut occluded);
@@ -515,7 +518,7 @@ pub(crate) fn measure(
                         c.tests
                     })
                     .sum();
-                (start.elapsed().as_secs_f64(), tests)
+                (start.elapsed().as_secs_f64(), (tests, 0))
             })
         }
         KdbeamRays::Packets(packets) => {
@@ -533,31 +536,19 @@ pub(crate) fn measure(
                         c.tests
                     })
                     .sum();
-                (start.elapsed().as_secs_f64(), tests)
+                (start.elapsed().as_secs_f64(), (tests, 0))
             })
         }
     };
-    (seconds, tests as f64 / n.max(1) as f64)
-}
-
-/// For single rays, the share (percent) of ray–triangle tests `tracer`'s single-ray culling
-/// removes, counted in one untimed pass; NaN for packets.
-fn culled_percent(tracer: &Tracer<'_>, rays: &KdbeamRays, any: bool) -> f64 {
-    let KdbeamRays::Single(rays) = rays else {
-        return f64::NAN;
+    let culled_percent = match rays {
+        KdbeamRays::Single(_) => 100.0 * culled as f64 / (tests + culled).max(1) as f64,
+        _ => f64::NAN,
     };
-    let (tests, culled) = rays
-        .par_iter()
-        .map(|r| {
-            let c = if any {
-                tracer.occluded_counted(r).1
-            } else {
-                tracer.intersect_counted(r).1
-            };
-            (c.tests, c.culled)
-        })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    100.0 * culled as f64 / (tests + culled).max(1) as f64
+    Measured {
+        seconds,
+        tests_per_ray: tests as f64 / n.max(1) as f64,
+        culled_percent,
+    }
 }
 
 /// Each packet's share of `out`, cut before timing.
@@ -574,7 +565,7 @@ fn split_per_packet<'a, T>(packets: &[RayPacket], out: &'a mut [T]) -> Vec<&'a m
 
 /// Runs `run` (which returns seconds and a count) once untimed, then `reps` (at least 1) more
 /// times: the median seconds of those, and the first run's count.
-fn warm_then_median(reps: usize, mut run: impl FnMut() -> (f64, u64)) -> (f64, u64) {
+fn warm_then_median<T>(reps: usize, mut run: impl FnMut() -> (f64, T)) -> (f64, T) {
     let (_, count) = run();
     let mut times: Vec<f64> = (0..reps.max(1)).map(|_| run().0).collect();
     times.sort_by(f64::total_cmp);

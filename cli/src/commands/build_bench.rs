@@ -154,7 +154,7 @@ pub(crate) fn run(args: BuildBenchArgs) -> Result<()> {
                         Ok(start.elapsed().as_secs_f64())
                     })?;
                     let tracer = Tracer::new(&tree).with_packet(shape);
-                    let (frame, _) = measure(args.reps, &tracer, &packets, false);
+                    let frame = measure(args.reps, &tracer, &packets, false).seconds;
                     Ok(Built {
                         build,
                         rebuild: Some(rebuild),
