@@ -17,7 +17,7 @@ mod fuzz_checks;
 use fuzz_checks::wins_by_an_extra_test;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{Culling, Frustum, PacketCounters};
+use kdbeam::trace::{Culling, Frustum, PacketCounters, RayBoxes};
 use kdbeam::Camera;
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
@@ -166,7 +166,8 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                         }
                     }
                     visits += counters.ray_leaf_visits;
-                    if culling.is_enabled() && culling.with_raybox(false) != Culling::AUTO {
+                    if culling.is_enabled() && culling.with_raybox(RayBoxes::Auto) != Culling::AUTO
+                    {
                         assert!(counters.beams > 0, "{name} {isa} {shape:?} {culling}: no beam was ever built: the test proves nothing");
                     }
                 }

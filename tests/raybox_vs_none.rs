@@ -1,9 +1,10 @@
 //! Ray-box culling (Nah et al.) is conservative: with it, every single ray gets the same closest
 //! hit as without — triangle id, `t`, `u`, `v`, bit for bit — and the same any-hit verdict, on
 //! every ISA this CPU runs (each ISA tested is printed; one it lacks is reported skipped), with
-//! both intersectors, on trees of small and large leaves. Packets with `+raybox` (leaf visits of
-//! few rays and no beam culled by the box of their segments) are checked against the unculled
-//! scalar path at every packet size.
+//! both intersectors, on trees of small and large leaves, on, where it pays (the default
+//! `auto`'s setting) and with the beam. Packets with it (leaf visits of few rays and no beam
+//! culled by the box of their segments) are checked against the unculled scalar path at every
+//! packet size.
 //!
 //! Tolerance: none. A culled triangle is never a hit the unculled query keeps, and the
 //! survivors are tested by the same kernels on the same rays.
@@ -17,7 +18,7 @@ mod common;
 
 use kdbeam::rays::secondary::{SecondaryRays, Workload};
 use kdbeam::scene::procedural;
-use kdbeam::trace::{Culling, PacketCounters, RayCounters};
+use kdbeam::trace::{Culling, PacketCounters, RayBoxes, RayCounters};
 use kdbeam::{
     BuildParams, Camera, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray,
     RayPacket, Tracer, Vec3,
@@ -88,8 +89,10 @@ fn check(name: &str, mesh: &Mesh, params: &BuildParams, seed: u64) -> RayCounter
         let (scalar, want) = reference(&tree, intersector, &rays);
         for isa in isas() {
             for culling in [
-                Culling::NONE.with_raybox(true),
-                Culling::AUTO.with_raybox(true),
+                Culling::NONE.with_raybox(RayBoxes::On),
+                Culling::NONE.with_raybox(RayBoxes::Auto),
+                Culling::AUTO,
+                Culling::AUTO.with_raybox(RayBoxes::On),
             ] {
                 let tracer = scalar.with_isa(isa).unwrap().with_culling(culling);
                 for (ray, (w, wo)) in rays.iter().zip(&want) {
@@ -173,8 +176,9 @@ fn check_packets(name: &str, mesh: &Mesh, params: &BuildParams, seed: u64) -> (u
             for shape in PacketShape::ALL {
                 for culling in [
                     Culling::NONE,
-                    Culling::NONE.with_raybox(true),
-                    Culling::AUTO.with_raybox(true),
+                    Culling::NONE.with_raybox(RayBoxes::On),
+                    Culling::AUTO,
+                    Culling::AUTO.with_raybox(RayBoxes::On),
                 ] {
                     let tracer = scalar
                         .with_isa(isa)
@@ -209,7 +213,7 @@ fn check_packets(name: &str, mesh: &Mesh, params: &BuildParams, seed: u64) -> (u
                     }
                     if culling == Culling::NONE {
                         unculled_tests += counters.tests;
-                    } else if culling == Culling::NONE.with_raybox(true) {
+                    } else if culling == Culling::NONE.with_raybox(RayBoxes::On) {
                         culled_tests += counters.tests;
                     }
                 }

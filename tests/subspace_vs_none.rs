@@ -17,7 +17,7 @@ mod common;
 
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{filtered, Culling, Subspace};
+use kdbeam::trace::{filtered, Culling, RayBoxes, Subspace};
 use kdbeam::{BuildParams, Hit, Isa, KdTree, Mesh, Ray, Tracer, Vec3};
 
 /// The ray sets of the module docs.
@@ -107,7 +107,8 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], variants: &[Subspace]) -> u64 
             if s.is_none() && !raybox {
                 continue;
             }
-            let culling = Culling::NONE.with_subspace(s).with_raybox(raybox);
+            let boxes = if raybox { RayBoxes::On } else { RayBoxes::Off };
+            let culling = Culling::NONE.with_subspace(s).with_raybox(boxes);
             let tracer = Tracer::new(tree)
                 .with_isa(isa)
                 .unwrap()

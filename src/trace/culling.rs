@@ -53,6 +53,34 @@ pub enum Frustum {
     Packet,
 }
 
+/// Where ray-box culling (Nah et al.; [`Culling::with_raybox`]) runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RayBoxes {
+    /// Nowhere.
+    Off,
+    /// Where it pays: packets' leaf visits of a few rays and no beam, and single rays on the
+    /// scalar ISA. With a vector of lanes, one ray tests as many triangles per instruction as
+    /// the stage tests boxes, so it cannot save a single ray more than it costs; a packet's
+    /// few rays share one box test over every lane, and the scalar ISA tests one triangle at a
+    /// time.
+    Auto,
+    /// Every leaf visit it can serve: every single-ray leaf, and packets' leaf visits of a few
+    /// rays and no beam (the setting of Nah et al.'s experiments).
+    On,
+}
+
+impl RayBoxes {
+    /// Its value in the culling grammar's `/raybox=` option: `off`, `auto`, `on`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            RayBoxes::Off => "off",
+            RayBoxes::Auto => "auto",
+            RayBoxes::On => "on",
+        }
+    }
+}
+
 /// Culling in the leaves: which planes, the aperture test, which rays, in which order, and
 /// which leaves skip it.
 ///
@@ -79,9 +107,9 @@ pub struct Culling {
     pub min_triangles: u32,
     /// Leaf visits with fewer active rays are tested unculled.
     pub min_rays: u32,
-    /// Ray-box culling of single rays and of packets' leaf visits of few rays (Nah et al.;
-    /// [`Culling::with_raybox`]).
-    pub raybox: bool,
+    /// Where ray-box culling of single rays and of packets' leaf visits of few rays runs (Nah
+    /// et al.; [`Culling::with_raybox`]).
+    pub raybox: RayBoxes,
     /// Subspace culling of single rays ([`Subspace`]); packets ignore it.
     pub subspace: Option<Subspace>,
 }
@@ -95,7 +123,7 @@ impl Culling {
         aperture_first: true,
         min_triangles: 0,
         min_rays: 0,
-        raybox: false,
+        raybox: RayBoxes::Off,
         subspace: None,
     };
 
@@ -107,14 +135,16 @@ impl Culling {
         aperture_first: true,
         min_triangles: 1,
         min_rays: 1,
-        raybox: false,
+        raybox: RayBoxes::Off,
         subspace: None,
     };
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
     /// triangles, visits with a single active ray), masked when fewer than half the packet's
-    /// rays remain. No aperture test: on real scenes it culls few tests beyond the planes, and
-    /// costs more than that saves (`kdbeam bench SCENE --culling auto,auto+aperture` compares).
+    /// rays remain; ray-box culling where it pays ([`RayBoxes::Auto`]: the leaf visits of a
+    /// few rays that build no beam, and single rays on the scalar ISA). No aperture test: on
+    /// real scenes it culls few tests beyond the planes, and costs more than that saves
+    /// (`kdbeam bench SCENE --culling auto,auto+aperture` compares).
     pub const AUTO: Culling = Culling {
         planes: Planes::Six,
         aperture: false,
@@ -122,26 +152,26 @@ impl Culling {
         aperture_first: true,
         min_triangles: 3,
         min_rays: 2,
-        raybox: false,
+        raybox: RayBoxes::Auto,
         subspace: None,
     };
 
     /// The named presets, for tables and sweeps.
     pub const PRESETS: [(&'static str, Culling); 8] = [
         ("none", Culling::NONE),
-        ("raybox", Culling::NONE.with_raybox(true)),
+        ("raybox", Culling::NONE.with_raybox(RayBoxes::On)),
         ("4plane", Culling::planes(Planes::Four, false)),
         ("6plane", Culling::planes(Planes::Six, false)),
         ("4plane+aperture", Culling::planes(Planes::Four, true)),
         ("6plane+aperture", Culling::FULL),
         ("auto", Culling::AUTO),
-        ("auto+raybox", Culling::AUTO.with_raybox(true)),
+        ("auto+raybox", Culling::AUTO.with_raybox(RayBoxes::On)),
     ];
 
     /// Every culling setting worth telling apart (culling on): the presets, the masked frustum
-    /// and the distance-first order, ray-box culling alone and with the default. The
-    /// differential tests and the fuzzer run each of them.
-    pub const VARIANTS: [Culling; 12] = [
+    /// and the distance-first order, ray-box culling alone, with the default and in every leaf
+    /// visit it can serve. The differential tests and the fuzzer run each of them.
+    pub const VARIANTS: [Culling; 13] = [
         Culling::planes(Planes::Four, false),
         Culling::planes(Planes::Six, false),
         Culling::planes(Planes::Four, true),
@@ -154,8 +184,9 @@ impl Culling {
         Culling::FULL.with_aperture_first(false),
         Culling::planes(Planes::Six, false).with_frustum(Frustum::Packet),
         Culling::FULL.with_frustum(Frustum::Packet),
-        Culling::NONE.with_raybox(true),
-        Culling::AUTO.with_raybox(true),
+        Culling::NONE.with_raybox(RayBoxes::On),
+        Culling::NONE.with_raybox(RayBoxes::Auto),
+        Culling::AUTO.with_raybox(RayBoxes::On),
     ];
 
     /// Fixed planes and aperture on every leaf visit, maskless.
@@ -204,16 +235,31 @@ impl Culling {
         Culling { min_rays, ..self }
     }
 
-    /// The same setting with ray-box culling on or off: in a leaf of at least three triangles,
-    /// a ray's segment there (up to its closest hit so far) is boxed and tested against a box
-    /// per triangle clipped to the leaf (Nah, Park, Kang & Han, *Ray-Box Culling for Tree
-    /// Structures*, J. Inf. Sci. Eng.), before any ray–triangle test. Single rays do this in
-    /// every such leaf; packets in the per-ray traversal's leaf visits that build no beam and
-    /// hold at most four active rays, with one box around those rays' segments. The tree's
-    /// boxes are built on first use ([`crate::KdTree::triangle_boxes`]).
+    /// The same setting with ray-box culling off, where it pays, or on: in a leaf of at least
+    /// three triangles, a ray's segment there (up to its closest hit so far) is boxed and
+    /// tested against a box per triangle clipped to the leaf (Nah, Park, Kang & Han, *Ray-Box
+    /// Culling for Tree Structures*, J. Inf. Sci. Eng.), before any ray–triangle test. Single
+    /// rays do this in every such leaf (with [`RayBoxes::Auto`], on the scalar ISA only);
+    /// packets in the per-ray traversal's leaf visits that build no beam and hold at most four
+    /// active rays, with one box around those rays' segments. The tree's boxes are built on
+    /// first use ([`crate::KdTree::triangle_boxes`]).
     #[must_use]
-    pub const fn with_raybox(self, raybox: bool) -> Culling {
+    pub const fn with_raybox(self, raybox: RayBoxes) -> Culling {
         Culling { raybox, ..self }
+    }
+
+    /// Do single rays run ray-box culling, on scalar lanes (`scalar`) or on a vector of them?
+    pub(crate) fn raybox_single(&self, scalar: bool) -> bool {
+        match self.raybox {
+            RayBoxes::Off => false,
+            RayBoxes::Auto => scalar,
+            RayBoxes::On => true,
+        }
+    }
+
+    /// Do packets' leaf visits of few rays and no beam run ray-box culling?
+    pub(crate) fn raybox_packets(&self) -> bool {
+        self.raybox != RayBoxes::Off
     }
 
     /// The stages single rays run (the rest of the setting is for packets): the
@@ -268,7 +314,8 @@ impl Culling {
     /// test is on, then the single-ray stages (`+raybox`, then the subspace stage; on the
     /// `none` base they stand alone: `raybox`, `raybox+subspace`), then, in this order, each
     /// option whose value differs from the base's: the frustum, the order, `min-triangles=N`,
-    /// `min-rays=N`. So the presets print as their
+    /// `min-rays=N`, `raybox=off|auto` (ray-box culling on prints as the `+raybox` stage). So
+    /// the presets print as their
     /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
     /// the distance-first order as `6plane+aperture/masked/distance-first`.
     #[must_use]
@@ -287,6 +334,9 @@ impl Culling {
             if self.min_rays != base.min_rays {
                 options.push(format!("min-rays={}", self.min_rays));
             }
+            if self.raybox != base.raybox && self.raybox != RayBoxes::On {
+                options.push(format!("raybox={}", self.raybox.name()));
+            }
             options
         };
         let (base_name, options) = BASES
@@ -300,7 +350,7 @@ impl Culling {
             name.push_str("+aperture");
         }
         let single = [
-            self.raybox.then_some("raybox"),
+            (self.raybox == RayBoxes::On).then_some("raybox"),
             self.subspace.map(Subspace::name),
         ];
         for stage in single.into_iter().flatten() {
@@ -377,7 +427,8 @@ const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +apertu
     one of +subspace|+subspace6|+subspace-exact|+subspace6-exact (single-ray stages alone are \
     none with them: raybox, subspace, raybox+subspace), then any of \
     /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
-    /min-rays=N (at most one of each kind): e.g. 6plane+aperture/masked/distance-first";
+    /min-rays=N, /raybox=off|auto (at most one of each kind, and no /raybox= with +raybox): e.g. \
+    6plane+aperture/masked/distance-first";
 
 impl FromStr for Culling {
     type Err = Error;
@@ -392,8 +443,10 @@ impl FromStr for Culling {
     ///   alone is `none+raybox`. Every preset of [`Culling::PRESETS`] is such a name
     ///   (`4plane+aperture`, `6plane+aperture`, `auto+raybox`).
     /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`), the order
-    ///   (`/aperture-first`, `/distance-first`), and the leaves and visits that skip culling
-    ///   (`/min-triangles=N`, `/min-rays=N`), at most one of each kind, in any order.
+    ///   (`/aperture-first`, `/distance-first`), the leaves and visits that skip culling
+    ///   (`/min-triangles=N`, `/min-rays=N`), and where ray-box culling runs when the stage
+    ///   does not say (`/raybox=off`, `/raybox=auto`: [`RayBoxes`]; `auto` has it where it
+    ///   pays, the other bases nowhere), at most one of each kind, in any order.
     ///
     /// [`Culling::name`] prints every setting in this grammar, and it parses back to the same
     /// setting.
@@ -444,13 +497,27 @@ impl FromStr for Culling {
             }
         }
         c.aperture |= aperture;
-        c.raybox = raybox;
+        if raybox {
+            c.raybox = RayBoxes::On;
+        }
         c.subspace = subspace;
         let (mut frustum, mut order, mut triangles, mut rays) = (None, None, None, None);
+        let mut boxes = None;
         for option in parts {
             let (slot, value) = match option.split_once('=') {
                 Some(("min-triangles", n)) => (&mut triangles, n),
                 Some(("min-rays", n)) => (&mut rays, n),
+                Some(("raybox", v)) => {
+                    let value = [RayBoxes::Off, RayBoxes::Auto]
+                        .into_iter()
+                        .find(|b| b.name() == v)
+                        .ok_or_else(|| bad(format!("{option:?}: raybox= takes off or auto")))?;
+                    if raybox || boxes.replace(value).is_some() {
+                        return Err(bad(format!("{option:?} with another raybox setting")));
+                    }
+                    c.raybox = value;
+                    continue;
+                }
                 _ => {
                     match Frustum::ALL.into_iter().find(|f| f.name() == option) {
                         Some(f) if frustum.is_none() => frustum = Some(f),
@@ -543,7 +610,11 @@ mod tests {
                 let text = format!("{stages}{options}");
                 let c: Culling = text.parse().unwrap_or_else(|e| panic!("{text}: {e}"));
                 assert_eq!(c.aperture, stages.contains("+aperture"), "{text}");
-                assert_eq!(c.raybox, stages.contains("raybox"), "{text}");
+                assert_eq!(
+                    c.raybox == RayBoxes::On,
+                    stages.contains("raybox"),
+                    "{text}"
+                );
                 assert_eq!(c.subspace.is_some(), stages.contains("subspace"), "{text}");
                 let name = c.to_string();
                 assert!(!name.contains(','), "{name}");
@@ -609,14 +680,30 @@ mod tests {
         );
         assert_eq!(
             "raybox".parse::<Culling>().unwrap(),
-            Culling::NONE.with_raybox(true)
+            Culling::NONE.with_raybox(RayBoxes::On)
         );
+        assert_eq!(Culling::AUTO.raybox, RayBoxes::Auto);
+        for (text, c) in [
+            ("auto/raybox=off", Culling::AUTO.with_raybox(RayBoxes::Off)),
+            (
+                "none/raybox=auto",
+                Culling::NONE.with_raybox(RayBoxes::Auto),
+            ),
+            (
+                "6plane+aperture/raybox=auto",
+                Culling::FULL.with_raybox(RayBoxes::Auto),
+            ),
+        ] {
+            assert_eq!(text.parse::<Culling>().unwrap(), c, "{text}");
+            assert_eq!(c.to_string(), text);
+        }
         assert_eq!(
             "none+raybox".parse::<Culling>().unwrap().to_string(),
             "raybox"
         );
         let c: Culling = "raybox+aperture/min-rays=3".parse().unwrap();
-        assert!(c.raybox && c.aperture && c.planes == Planes::None && c.min_rays == 3);
+        assert!(c.raybox == RayBoxes::On && c.aperture && c.planes == Planes::None);
+        assert_eq!(c.min_rays, 3);
         assert_eq!(c.to_string().parse::<Culling>().unwrap(), c, "{c}");
     }
 
@@ -631,6 +718,10 @@ mod tests {
             "6plane+frustum",
             "raybox+raybox",
             "auto+raybox+raybox",
+            "auto+raybox/raybox=off",
+            "auto/raybox=on",
+            "auto/raybox=off/raybox=auto",
+            "auto/raybox",
             "none+raybox+aperture+raybox",
             "subspace+subspace6",
             "none+subspace+subspace",

@@ -21,7 +21,7 @@ use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
-pub use culling::{Culling, Frustum, Planes};
+pub use culling::{Culling, Frustum, Planes, RayBoxes};
 pub use packet::{PacketCounters, StageCycles};
 pub use single::is_traceable;
 pub use single::RayCounters;
@@ -236,7 +236,8 @@ impl<'t> Tracer<'t> {
         accept: impl FnMut(&Hit) -> bool,
     ) -> (bool, Hit, RayCounters) {
         let (dispatch, tree, intersector) = (self.dispatch, self.tree, self.intersector);
-        match (self.culling.subspace, self.culling.raybox) {
+        let raybox = self.culling.raybox_single(dispatch.isa() == Isa::Scalar);
+        match (self.culling.subspace, raybox) {
             (Some(s), false) => subspace::single_ray_culled::<ANY>(
                 dispatch,
                 tree,

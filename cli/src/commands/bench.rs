@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use kdbeam::rays::secondary::DEFAULT_AO_RAYS;
 use kdbeam::rays::stream::{intersect_sorted, occluded_sorted};
-use kdbeam::trace::{Culling, Intersector};
+use kdbeam::trace::{Culling, Intersector, RayBoxes};
 use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Ray, RayPacket, Tracer};
 use kdbeam_cli::render::{RaySet, Rays};
 use kdbeam_cli::{Error, Result};
@@ -259,7 +259,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
                                 if let Some(stage) = culling.subspace {
                                     stage.prepare(&tree);
                                 }
-                                if culling.raybox {
+                                if culling.raybox != RayBoxes::Off {
                                     let _ = tree.triangle_boxes();
                                 }
                                 let m = pool.install(|| {

@@ -4,7 +4,7 @@
 
 use std::time::{Duration, Instant};
 
-use kdbeam::trace::{Culling, RayCounters};
+use kdbeam::trace::{Culling, RayBoxes, RayCounters};
 use kdbeam::{BuildParams, KdTree, Ray, Tracer};
 use kdbeam_cli::render::Rays;
 use kdbeam_cli::Result;
@@ -92,10 +92,10 @@ pub(crate) fn run(args: &SweepArgs) -> Result<()> {
         let tree = with_spinner("building kd-tree", || KdTree::build(&mesh, &params))?;
         for (label, culling) in [
             ("none", Culling::NONE),
-            ("raybox", Culling::NONE.with_raybox(true)),
+            ("raybox", Culling::NONE.with_raybox(RayBoxes::On)),
         ] {
             let mut build = tree.stats().build_time;
-            if culling.raybox {
+            if culling.raybox != RayBoxes::Off {
                 let start = Instant::now();
                 let _ = tree.triangle_boxes();
                 build += start.elapsed();

@@ -97,7 +97,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
         packet: p,
         visitor,
         counters: &mut *q.counters,
-        boxes: q.culling.raybox.then(|| q.tree.triangle_boxes()),
+        boxes: q.culling.raybox_packets().then(|| q.tree.triangle_boxes()),
     };
     let octants = octant_masks(l, p, traceable_mask(l, p, q.active));
     for (octant, mask) in octants.into_iter().enumerate() {
