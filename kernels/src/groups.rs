@@ -20,6 +20,24 @@ pub fn group_bits<L: Lanes>(mask: u64, g: usize) -> u32 {
     ((mask >> (g * L::WIDTH)) & lanes) as u32
 }
 
+/// The index of the lowest group of lanes that holds a bit of `rest`, whose bits it clears from
+/// `rest`. `rest` must not be 0.
+///
+/// `while rest != 0 { let g = take_group::<L>(&mut rest); … }` visits the groups of a mask that
+/// hold a ray, lowest first, at a cost per occupied group rather than per group of the packet:
+/// deep in a tree, and in the rays a packet brings into an instance, most groups are empty.
+#[inline(always)]
+pub fn take_group<L: Lanes>(rest: &mut u64) -> usize {
+    let g = rest.trailing_zeros() as usize / L::WIDTH;
+    let lanes = if L::WIDTH >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << L::WIDTH) - 1
+    };
+    *rest &= !(lanes << (g * L::WIDTH));
+    g
+}
+
 /// Groups of `L::WIDTH` lanes that cover `len` rays.
 #[inline(always)]
 #[must_use]

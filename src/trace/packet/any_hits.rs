@@ -1,6 +1,6 @@
 //! The any-hit visitor: a ray leaves the traversal at its first hit (shadow rays).
 
-use kdbeam_kernels::groups::{group_bits, group_count, lane_rays};
+use kdbeam_kernels::groups::{group_bits, lane_rays, take_group};
 use kdbeam_kernels::{LaneMask, Lanes, RayPacket};
 
 use super::lane_test::LaneTest;
@@ -56,12 +56,11 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
         let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.tmax, counters);
         #[allow(clippy::while_let_on_iterator)]
         while let Some((first, s)) = blocks.next() {
-            for g in 0..group_count::<L>(p.len()) {
+            let mut groups = open;
+            while groups != 0 {
+                let g = take_group::<L>(&mut groups);
                 let before = group_bits::<L>(open, g);
                 let mut bits = before;
-                if bits == 0 {
-                    continue;
-                }
                 let b = g * L::WIDTH;
                 let rays = lane_rays(l, p, g);
                 let prepared = T::prepare(l, &rays);

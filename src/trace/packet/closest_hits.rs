@@ -1,7 +1,7 @@
 //! The closest-hit visitor: each ray's nearest hit, ties to the smaller triangle id.
 
 use kdbeam_kernels::beam::Survivors;
-use kdbeam_kernels::groups::{group_bits, group_count, lane_rays};
+use kdbeam_kernels::groups::{group_bits, lane_rays, take_group};
 use kdbeam_kernels::{HitPacket, LaneF32, LaneMask, Lanes, RayPacket};
 
 use super::lane_test::LaneTest;
@@ -76,28 +76,28 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
         // which is only `#[inline]` and may stay out of the ISA's entry point.
         #[allow(clippy::while_let_on_iterator)]
         while let Some((first, survivors)) = blocks.next() {
-            for g in 0..group_count::<L>(p.len()) {
+            let mut rest = visit.mask;
+            while rest != 0 {
+                let g = take_group::<L>(&mut rest);
                 let bits = group_bits::<L>(visit.mask, g);
-                if bits != 0 {
-                    let better = test_group::<L, T>(
-                        l,
-                        p,
-                        (g, bits),
-                        &visit.triangles,
-                        (first, survivors),
-                        self.hits,
-                    );
-                    self.has_hit |= u64::from(better) << (g * L::WIDTH);
-                    let tested = survivors.mask.count_ones();
-                    let mut lanes = bits;
-                    while lanes != 0 {
-                        self.hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
-                        lanes &= lanes - 1;
-                    }
-                    #[cfg(feature = "stats")]
-                    {
-                        counters.hits += u64::from(better.count_ones());
-                    }
+                let better = test_group::<L, T>(
+                    l,
+                    p,
+                    (g, bits),
+                    &visit.triangles,
+                    (first, survivors),
+                    self.hits,
+                );
+                self.has_hit |= u64::from(better) << (g * L::WIDTH);
+                let tested = survivors.mask.count_ones();
+                let mut lanes = bits;
+                while lanes != 0 {
+                    self.hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
+                    lanes &= lanes - 1;
+                }
+                #[cfg(feature = "stats")]
+                {
+                    counters.hits += u64::from(better.count_ones());
                 }
             }
         }

@@ -1,7 +1,7 @@
 //! The per-ray packet traversal: each ray keeps its own interval, a mask says which rays are in
 //! the current cell.
 
-use kdbeam_kernels::groups::{group_bits, group_count, load_axes};
+use kdbeam_kernels::groups::{group_bits, group_count, load_axes, take_group};
 use kdbeam_kernels::{slab, LaneF32, LaneMask, Lanes};
 
 use super::visit::{visit_leaf, LeafBoxes, LeafVisit, PacketVisitor};
@@ -44,11 +44,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let bounds = root_bounds(tree);
     let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
     let mut clipped = 0u64;
-    for g in 0..groups {
+    let mut rest = mask;
+    while rest != 0 {
+        let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        if bits == 0 {
-            continue;
-        }
         let b = g * L::WIDTH;
         let origin = load_axes(l, &p.origin, b);
         let iv = load_axes(l, &inv, b);
@@ -92,11 +91,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 (node_index + 1, node.above_child())
             };
             let (mut near_mask, mut far_mask) = (0u64, 0u64);
-            for g in 0..groups {
+            let mut rest = mask;
+            while rest != 0 {
+                let g = take_group::<L>(&mut rest);
                 let bits = group_bits::<L>(mask, g);
-                if bits == 0 {
-                    continue;
-                }
                 let b = g * L::WIDTH;
                 let ts = (split - l.load(&p.origin[axis][b..])) * l.load(&inv[axis][b..]);
                 let (tn, tf) = (l.load(&t_enter[b..]), l.load(&t_exit[b..]));
@@ -152,11 +150,10 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             node_index = stack_node[top];
             let candidates = stack_mask[top] & !done;
             let best = visitor.best_t();
-            for g in 0..groups {
+            let mut rest = candidates;
+            while rest != 0 {
+                let g = take_group::<L>(&mut rest);
                 let bits = group_bits::<L>(candidates, g);
-                if bits == 0 {
-                    continue;
-                }
                 let b = g * L::WIDTH;
                 let (enter, exit) = (
                     l.load(&stack_enter[top][b..]),
