@@ -1,7 +1,7 @@
 //! The whole-packet interval traversal of [`Frustum::Packet`]: one `[t_enter, t_exit]` for the
 //! whole packet, and a slab test per leaf to find the rays that can hit there.
 
-use kdbeam_kernels::groups::{group_bits, group_count, lane_rays, load_axes};
+use kdbeam_kernels::groups::{group_bits, lane_rays, load_axes, take_group};
 use kdbeam_kernels::{slab, Aabb, LaneF32, LaneMask, Lanes, RayPacket};
 
 #[cfg(doc)]
@@ -52,7 +52,6 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
 ) -> u64 {
     let (l, tree, p) = (t.l, t.tree, t.packet);
     let (visitor, counters) = (&mut *t.visitor, &mut *t.counters);
-    let groups = group_count::<L>(p.len());
     let bounds = root_bounds(tree);
     let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
     let (inf, ninf, max) = (
@@ -69,11 +68,10 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     let (mut enter_lo, mut exit_hi) = (inf, ninf);
     let mut live_mask = 0u64;
     let mut inv_columns = [[0f32; N]; 3];
-    for g in 0..groups {
+    let mut rest = mask;
+    while rest != 0 {
+        let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        if bits == 0 {
-            continue;
-        }
         let b = g * L::WIDTH;
         let rays = lane_rays(l, p, g);
         let inv = [
@@ -125,7 +123,7 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     let mut budget = INTERVAL_NODE_BUDGET;
     // The latest best hit of an unfinished ray: a cell entered after it is skipped. It only
     // changes in a leaf the rays were tested in.
-    let mut latest = latest_best(l, live_mask, visitor.best_t(), groups);
+    let mut latest = latest_best(l, live_mask, visitor.best_t());
     loop {
         let node = nodes[node_index as usize];
         if !node.is_leaf() {
@@ -181,7 +179,7 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
                     boxes: None,
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
-                latest = latest_best(l, live_mask & !done, visitor.best_t(), groups);
+                latest = latest_best(l, live_mask & !done, visitor.best_t());
             }
         }
         // Pop the next cell that some ray still needs: one entered before its best hit.
@@ -201,16 +199,16 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
 
 /// The largest `best[i]` over the rays `i` of `mask`; `-inf` for no ray.
 #[inline(always)]
-fn latest_best<L: Lanes>(l: L, mask: u64, best: &Column, groups: usize) -> f32 {
+fn latest_best<L: Lanes>(l: L, mask: u64, best: &Column) -> f32 {
     let ninf = l.splat(f32::NEG_INFINITY);
     let mut latest = ninf;
-    for g in 0..groups {
+    let mut rest = mask;
+    while rest != 0 {
+        let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        if bits != 0 {
-            let b = g * L::WIDTH;
-            let t = L::F32::select(l.mask_from_bits(bits), l.load(&best[b..]), ninf);
-            latest = latest.max(t);
-        }
+        let b = g * L::WIDTH;
+        let t = L::F32::select(l.mask_from_bits(bits), l.load(&best[b..]), ninf);
+        latest = latest.max(t);
     }
     latest.reduce_max()
 }
@@ -247,11 +245,10 @@ fn rays_in_box<L: Lanes>(
     let (max, eps) = (l.splat(f32::MAX), l.splat(INTERVAL_EPS));
     let (ninf, inf) = (l.splat(f32::NEG_INFINITY), l.splat(f32::INFINITY));
     let mut inside = 0u64;
-    for g in 0..group_count::<L>(p.len()) {
+    let mut rest = mask;
+    while rest != 0 {
+        let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        if bits == 0 {
-            continue;
-        }
         let b = g * L::WIDTH;
         let origin = load_axes(l, &p.origin, b);
         let iv = load_axes(l, inv, b);
