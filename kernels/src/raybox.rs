@@ -168,3 +168,20 @@ pub fn overlapping<L: Lanes>(l: L, segment: &Aabb, boxes: &BoxBlock, first: usiz
     }
     (!apart).bits()
 }
+
+/// Of the first `count` triangles of `boxes` (bit `i`: triangle `i`), those whose box overlaps
+/// `segment`, a vector of boxes per [`overlapping`] call. `count` must not exceed [`BLOCK`].
+///
+/// A plain loop, not an iterator fold: a fold's closure may stay out of line, outside the
+/// caller's ISA target features.
+#[inline(always)]
+#[must_use]
+pub fn overlapping_block<L: Lanes>(l: L, segment: &Aabb, boxes: &BoxBlock, count: usize) -> u32 {
+    let mut kept = 0;
+    let mut first = 0;
+    while first < count {
+        kept |= overlapping(l, segment, boxes, first) << first;
+        first += L::WIDTH;
+    }
+    kept
+}

@@ -315,9 +315,9 @@ impl Culling {
     /// `none` base they stand alone: `raybox`, `raybox+subspace`), then, in this order, each
     /// option whose value differs from the base's: the frustum, the order, `min-triangles=N`,
     /// `min-rays=N`, `raybox=off|auto` (ray-box culling on prints as the `+raybox` stage). So
-    /// the presets print as their
-    /// names (`6plane+aperture`, `auto`), and e.g. [`Culling::FULL`] with the masked frustum and
-    /// the distance-first order as `6plane+aperture/masked/distance-first`.
+    /// the presets print as their names (`6plane+aperture`, `auto`), and e.g.
+    /// [`Culling::FULL`] with the masked frustum and the distance-first order as
+    /// `6plane+aperture/masked/distance-first`.
     #[must_use]
     pub fn name(&self) -> String {
         let options = |base: &Culling| {

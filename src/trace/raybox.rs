@@ -3,7 +3,7 @@
 //! the box of the ray's segment there, up to its closest hit so far, against the box of each
 //! triangle clipped to the leaf.
 
-use kdbeam_kernels::raybox::{overlapping, segment_box, BoxBlock};
+use kdbeam_kernels::raybox::{overlapping_block, segment_box, BoxBlock};
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, Lanes, Ray};
 
@@ -102,15 +102,7 @@ impl TriangleCull for RayBoxCull<'_> {
             let count = (self.leaf_len - (block - self.leaf_first) * BLOCK).min(BLOCK);
             let boxes = &self.boxes[block];
             self.kept_block = block;
-            // A plain loop, not an iterator fold: a fold's closure may stay out of line,
-            // outside the ISA's target features.
-            let mut kept = 0;
-            let mut f = 0;
-            while f < count {
-                kept |= overlapping(l, &self.segment, boxes, f) << f;
-                f += L::WIDTH;
-            }
-            self.kept = kept;
+            self.kept = overlapping_block(l, &self.segment, boxes, count);
         }
         valid & self.kept >> first
     }

@@ -2,7 +2,7 @@
 //! triangles that survive the leaf's beam.
 
 use kdbeam_kernels::beam::{Beam, Survivors};
-use kdbeam_kernels::raybox::{overlapping, segment_box, BoxBlock};
+use kdbeam_kernels::raybox::{overlapping_block, segment_box, BoxBlock};
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, Lanes, RayPacket, TriangleBlock, Vec3};
 
@@ -137,18 +137,6 @@ fn segments_box(p: &RayPacket, mut mask: u64, cells: &LeafBoxes<'_>, best: &Colu
     b
 }
 
-/// Of the first `count` triangles of a block, those whose box overlaps `segments`.
-#[inline(always)]
-fn overlapping_in_block<L: Lanes>(l: L, segments: &Aabb, boxes: &BoxBlock, count: usize) -> u32 {
-    let mut kept = 0;
-    let mut f = 0;
-    while f < count {
-        kept |= overlapping(l, segments, boxes, f) << f;
-        f += L::WIDTH;
-    }
-    kept
-}
-
 /// The blocks of up to [`BLOCK`] triangles of a leaf that hold triangles to test, culled by a
 /// beam when there is one, else by ray-box culling when it is on and the visit has few rays:
 /// `(first triangle, survivors)`. An iterator rather than a callback, so
@@ -241,8 +229,7 @@ impl<L: Lanes> Iterator for SurvivorBlocks<'_, L> {
                     let mut mask = TriangleBlock::valid_bits(count);
                     if let Some((segments, boxes)) = &self.raybox {
                         let start = Stamp::now();
-                        mask &=
-                            overlapping_in_block(self.l, segments, &boxes[first / BLOCK], count);
+                        mask &= overlapping_block(self.l, segments, &boxes[first / BLOCK], count);
                         start.add_to(&mut self.cull_cycles);
                     }
                     Survivors {
