@@ -367,32 +367,40 @@ impl Run<'_> {
 
 /// Writes the triangles of every leaf of `leaves` (record 0 is the empty leaves') into `blocks`,
 /// a run of [`TriangleBlock`]s per leaf, from the leaf-ordered mesh ids `ids` that each record's
-/// `first` indexes; `first` becomes the leaf's first block.
+/// `first` indexes; `first` becomes the leaf's first block. The blocks are written in parallel
+/// (with the `parallel` feature): they are most of a tree's bytes, and on one thread their
+/// writing and page faults are a serial tail of a parallel build.
 fn write_blocks(
     leaves: &mut [LeafRecord],
     ids: &[u32],
     blocks: &mut Vec<TriangleBlock>,
     triangles: &[Triangle],
 ) {
-    blocks.clear();
-    blocks.reserve(
-        leaves
-            .iter()
-            .map(|r| (r.count as usize).div_ceil(BLOCK))
-            .sum(),
-    );
+    // Each block's ids (a run of `ids`) and its leaf's first id, whose triangle's first vertex
+    // pads it.
+    let mut runs: Vec<(u32, u32, u32)> = Vec::new();
     for record in leaves.iter_mut().skip(1) {
-        let run = record.first as usize..(record.first + record.count) as usize;
+        let (first, end) = (record.first, record.first + record.count);
         // Block indices fit: there are no more blocks than triangle references.
-        record.first = blocks.len() as u32;
-        let ids = &ids[run];
-        let Some(&id0) = ids.first() else { continue };
-        let pad = triangles[id0 as usize].v0;
-        for chunk in ids.chunks(BLOCK) {
-            let lanes = chunk.iter().map(|&id| (triangles[id as usize], id));
-            blocks.push(TriangleBlock::new(pad, lanes));
+        record.first = runs.len() as u32;
+        let mut start = first;
+        while start < end {
+            let len = (end - start).min(BLOCK as u32);
+            runs.push((first, start, len));
+            start += len;
         }
     }
+    let block = |&(leaf_first, start, len): &(u32, u32, u32)| {
+        let pad = triangles[ids[leaf_first as usize] as usize].v0;
+        let run = &ids[start as usize..(start + len) as usize];
+        TriangleBlock::new(pad, run.iter().map(|&id| (triangles[id as usize], id)))
+    };
+    blocks.clear();
+    blocks.reserve(runs.len());
+    #[cfg(feature = "parallel")]
+    blocks.par_extend(runs.par_iter().map(block));
+    #[cfg(not(feature = "parallel"))]
+    blocks.extend(runs.iter().map(block));
 }
 
 /// Replaces `out` with `len` copies of `zero`, written in parallel.
