@@ -17,7 +17,7 @@ mod fuzz_checks;
 use fuzz_checks::wins_by_an_extra_test;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{Culling, Frustum, PacketCounters, RayBoxes};
+use kdbeam::trace::{Culling, PacketCounters, RayBoxes};
 use kdbeam::Camera;
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
@@ -142,7 +142,7 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                                         || (g.u.to_bits(), g.v.to_bits())
                                             == (w.u.to_bits(), w.v.to_bits()));
                                 let tie = !same
-                                    && culling.frustum == Frustum::Packet
+                                    && culling.may_traverse_whole_packets()
                                     && wins_by_an_extra_test(mesh, intersector, ray, &g, &w);
                                 wider_ties += u64::from(tie);
                                 compared += 1;
@@ -152,7 +152,7 @@ fn check(name: &str, mesh: &Mesh, ci: f32, count: usize, seed: u64) -> u64 {
                                 );
                                 // A hit only the packet traversal's tests found occludes too.
                                 let occluded = occ >> j & 1 != 0;
-                                let extra = culling.frustum == Frustum::Packet
+                                let extra = culling.may_traverse_whole_packets()
                                     && on
                                     && !wo
                                     && g.is_hit()

@@ -65,7 +65,7 @@ fn every_scale_and_offset_agrees_with_the_f64_oracle() {
             .expect("small meshes");
             let tree = build(&mesh);
             let rays = random_rays(&mesh.bounds(), 2000, 9);
-            packets_equal_scalar(&tree, &rays[..256], u64::MAX, Culling::AUTO);
+            packets_equal_scalar(&mesh, &tree, &rays[..256], u64::MAX, Culling::AUTO);
             let tracer = watertight(&tree);
             let (mut disagreements, mut errors) = (0, Vec::new());
             for r in &rays {
@@ -155,7 +155,7 @@ fn axis_parallel_and_grazing_rays() {
         grazing.push(Ray::new(o, d));
     }
     rays.extend(&grazing);
-    packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, u64::MAX, Culling::AUTO);
     // In the plane of a flat grid: every triangle it meets is edge-on.
     let flat = quad_grid(8, 8, Vec3::ZERO, Vec3::X, Vec3::Y);
     let flat_tree = build(&flat);
@@ -168,7 +168,7 @@ fn axis_parallel_and_grazing_rays() {
             )
         })
         .collect();
-    packets_equal_scalar(&flat_tree, &in_plane, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&flat, &flat_tree, &in_plane, u64::MAX, Culling::AUTO);
     for intersector in Intersector::ALL {
         let tracer = watertight(&flat_tree).with_intersector(intersector);
         for r in &in_plane {
@@ -220,7 +220,7 @@ fn rays_starting_on_a_surface() {
         }
     }
     inward.extend(outward);
-    packets_equal_scalar(&tree, &inward, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &inward, u64::MAX, Culling::AUTO);
 }
 
 /// Degenerate triangles (a repeated index, or two indices of one position) are never hit, not
@@ -266,7 +266,7 @@ fn degenerate_triangles_are_never_hit() {
         assert_eq!(tracer.intersect(&proper).triangle, 6, "{intersector:?}");
     }
     rays.push(proper);
-    packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, u64::MAX, Culling::AUTO);
 }
 
 /// A flat mesh (every leaf box flat): rays from above and below at random points of the grid
@@ -304,7 +304,7 @@ fn flat_mesh_is_hit_everywhere() {
             "{r:?}: {hit:?}, oracle {want:?}"
         );
     }
-    packets_equal_scalar(&tree, &rays, 0x5555_aaaa_ffff_0f0f, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, 0x5555_aaaa_ffff_0f0f, Culling::AUTO);
 }
 
 /// Rays that cannot be traced, placed among good ones in every packet shape.
@@ -352,8 +352,8 @@ fn nan_and_infinite_lanes_miss_and_leave_the_others_alone() {
             rays.push(bad[k / 3 % bad.len()]);
         }
     }
-    packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
-    packets_equal_scalar(&tree, &rays, 0xdead_beef_f00d_cafe, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, 0xdead_beef_f00d_cafe, Culling::AUTO);
 }
 
 /// All-inactive packets (and active bits past the packet's rays, and packets of no rays) report
@@ -416,7 +416,7 @@ fn the_empty_scene_is_missed_by_every_ray() {
     for r in &rays {
         assert_eq!(watertight(&tree).intersect(r), Hit::NONE);
     }
-    packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
+    packets_equal_scalar(&mesh, &tree, &rays, u64::MAX, Culling::AUTO);
     let tracer = Tracer::new(&tree);
     let mut hits = vec![
         Hit {

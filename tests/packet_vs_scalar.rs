@@ -2,6 +2,10 @@
 //! packet size × intersector × closest and any hit) against the scalar single-ray path, on procedural and shared scenes,
 //! with primary, random and adversarial rays and random inactive lanes.
 //!
+//! The packets trace with the default culling on the per-ray traversal (`auto/adaptive`): the
+//! whole-packet traversal that the default gives coherent packets tests more than the scalar
+//! path, and `tests/culling_vs_none.rs` checks it with the tolerance it needs.
+//!
 //! Tolerance: none. The lane kernels perform the same IEEE-754 operations in the same order as
 //! the scalar ones (no FMA in either intersector), and a ray is active in exactly the cells the
 //! scalar traversal enters, so hits must agree to the bit, ids included.
@@ -10,6 +14,7 @@ mod common;
 
 use kdbeam::rays::random_rays;
 use kdbeam::scene::rng::Rng;
+use kdbeam::trace::{Culling, Frustum};
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, PacketShape, Ray, RayPacket, Tracer,
 };
@@ -20,7 +25,8 @@ fn check(name: &str, tree: &KdTree, rays: &[Ray], seed: u64) -> usize {
         let scalar = Tracer::new(tree)
             .with_isa(Isa::Scalar)
             .unwrap()
-            .with_intersector(intersector);
+            .with_intersector(intersector)
+            .with_culling(Culling::AUTO.with_frustum(Frustum::Adaptive));
         let expected: Vec<Hit> = rays.iter().map(|r| scalar.intersect(r)).collect();
         let expected_occ: Vec<bool> = rays.iter().map(|r| scalar.occluded(r)).collect();
         for (i, r) in rays.iter().enumerate() {

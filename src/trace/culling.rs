@@ -4,7 +4,9 @@ use std::fmt;
 use std::str::FromStr;
 
 use kdbeam_kernels::beam::Stages;
+use kdbeam_kernels::RayPacket;
 
+use super::packet::is_coherent;
 use super::subspace::Subspace;
 use crate::{Error, Result};
 
@@ -51,6 +53,15 @@ pub enum Frustum {
     /// [`Tracer::intersect`]: crate::Tracer::intersect
     /// [`Tracer::occluded_packet`]: crate::Tracer::occluded_packet
     Packet,
+    /// [`Frustum::Packet`] for a packet whose rays are coherent (origins within 1/1024 of the
+    /// scene's extent of each other and unit directions within 0.02, on every axis: a camera's
+    /// tiles at 512² and above), else [`Frustum::Adaptive`] (rays that start on surfaces: shadow,
+    /// ambient-occlusion and diffuse rays, whose segments the one interval of the whole-packet
+    /// traversal bounds loosely). A coherent packet builds its beam on every leaf visit, whatever
+    /// [`Culling::min_triangles`] and [`Culling::min_rays`] say (they serve the per-ray
+    /// traversal): there a visit without one tests every triangle against every ray in the
+    /// leaf's box. Hits as [`Frustum::Packet`] documents.
+    Coherent,
 }
 
 /// Where ray-box culling (Nah et al.; [`Culling::with_raybox`]) runs.
@@ -141,14 +152,15 @@ impl Culling {
 
     /// The default: the 6-plane frustum, skipped where it cannot pay (leaves of fewer than 3
     /// triangles, visits with a single active ray), masked when fewer than half the packet's
-    /// rays remain; ray-box culling where it pays ([`RayBoxes::Auto`]: the leaf visits of a
+    /// rays remain; coherent packets traverse the tree as a whole ([`Frustum::Coherent`]);
+    /// ray-box culling where it pays ([`RayBoxes::Auto`]: the leaf visits of a
     /// few rays that build no beam, and single rays on the scalar ISA). No aperture test: on
     /// real scenes it culls few tests beyond the planes, and costs more than that saves
     /// (`kdbeam bench SCENE --culling auto,auto+aperture` compares).
     pub const AUTO: Culling = Culling {
         planes: Planes::Six,
         aperture: false,
-        frustum: Frustum::Adaptive,
+        frustum: Frustum::Coherent,
         aperture_first: true,
         min_triangles: 3,
         min_rays: 2,
@@ -278,7 +290,35 @@ impl Culling {
         self.planes != Planes::None
     }
 
-    /// Does the packet traverse the tree as one interval ([`Frustum::Packet`] with a beam)?
+    /// May a packet traverse the tree as one interval ([`Frustum::Packet`], or
+    /// [`Frustum::Coherent`] with coherent rays, with a beam)? Its rays' hits may then differ
+    /// from the per-ray path's as [`Frustum::Packet`] documents, where a differential test
+    /// must allow it.
+    #[must_use]
+    pub fn may_traverse_whole_packets(&self) -> bool {
+        self.is_enabled() && matches!(self.frustum, Frustum::Packet | Frustum::Coherent)
+    }
+
+    /// The setting the rays `active` of `packet` trace with, in a scene whose largest extent is
+    /// `scale`: [`Frustum::Coherent`] resolved to [`Frustum::Packet`] (with a beam on every leaf
+    /// visit) for coherent rays and to [`Frustum::Adaptive`] for others; any other setting as it
+    /// is.
+    pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, scale: f32) -> Culling {
+        match self.frustum {
+            Frustum::Coherent if self.is_enabled() && is_coherent(packet, active, scale) => {
+                Culling {
+                    frustum: Frustum::Packet,
+                    min_triangles: 1,
+                    min_rays: 1,
+                    ..self
+                }
+            }
+            Frustum::Coherent => self.with_frustum(Frustum::Adaptive),
+            _ => self,
+        }
+    }
+
+    /// Does a packet traverse the tree as one interval ([`Frustum::Packet`] with a beam)?
     pub(crate) fn interval_traversal(&self) -> bool {
         self.is_enabled() && self.frustum == Frustum::Packet
     }
@@ -302,8 +342,8 @@ impl Culling {
         Some(match self.frustum {
             Frustum::Masked => active,
             Frustum::Maskless | Frustum::Packet => packet,
-            Frustum::Adaptive if 2 * n < packet.count_ones() => active,
-            Frustum::Adaptive => packet,
+            Frustum::Adaptive | Frustum::Coherent if 2 * n < packet.count_ones() => active,
+            Frustum::Adaptive | Frustum::Coherent => packet,
         })
     }
 
@@ -389,15 +429,16 @@ fn order_name(aperture_first: bool) -> &'static str {
 
 impl Frustum {
     /// Every frustum.
-    pub const ALL: [Frustum; 4] = [
+    pub const ALL: [Frustum; 5] = [
         Frustum::Maskless,
         Frustum::Masked,
         Frustum::Adaptive,
         Frustum::Packet,
+        Frustum::Coherent,
     ];
 
     /// Its option in the culling grammar, without the `/`: `maskless`, `masked`, `adaptive`,
-    /// `packet`.
+    /// `packet`, `coherent`.
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -405,6 +446,7 @@ impl Frustum {
             Frustum::Masked => "masked",
             Frustum::Adaptive => "adaptive",
             Frustum::Packet => "packet",
+            Frustum::Coherent => "coherent",
         }
     }
 }
@@ -426,7 +468,7 @@ impl fmt::Display for Culling {
 const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, +raybox and \
     one of +subspace|+subspace6|+subspace-exact|+subspace6-exact (single-ray stages alone are \
     none with them: raybox, subspace, raybox+subspace), then any of \
-    /masked|/maskless|/adaptive|/packet, /distance-first|/aperture-first, /min-triangles=N, \
+    /masked|/maskless|/adaptive|/packet|/coherent, /distance-first|/aperture-first, /min-triangles=N, \
     /min-rays=N, /raybox=off|auto (at most one of each kind, and no /raybox= with +raybox): e.g. \
     6plane+aperture/masked/distance-first";
 
@@ -442,7 +484,7 @@ impl FromStr for Culling {
     ///   ray-box culling ([`Culling::with_raybox`]), in either order; `raybox`
     ///   alone is `none+raybox`. Every preset of [`Culling::PRESETS`] is such a name
     ///   (`4plane+aperture`, `6plane+aperture`, `auto+raybox`).
-    /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`), the order
+    /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`, `/coherent`), the order
     ///   (`/aperture-first`, `/distance-first`), the leaves and visits that skip culling
     ///   (`/min-triangles=N`, `/min-rays=N`), and where ray-box culling runs when the stage
     ///   does not say (`/raybox=off`, `/raybox=auto`: [`RayBoxes`]; `auto` has it where it
@@ -666,10 +708,14 @@ mod tests {
             assert_eq!(auto.to_string(), format!("auto+{}", s.name()));
         }
         let c: Culling = "6plane/packet".parse().unwrap();
-        assert!(c.interval_traversal() && c.to_string() == "6plane/packet");
+        assert!(c.may_traverse_whole_packets() && c.to_string() == "6plane/packet");
+        assert!(Culling::AUTO.may_traverse_whole_packets());
         assert!(!Culling::NONE
             .with_frustum(Frustum::Packet)
-            .interval_traversal());
+            .may_traverse_whole_packets());
+        assert!(!Culling::AUTO
+            .with_frustum(Frustum::Adaptive)
+            .may_traverse_whole_packets());
         let c = Culling::FULL
             .with_frustum(Frustum::Masked)
             .with_aperture_first(false);

@@ -274,9 +274,11 @@ impl<'t> Tracer<'t> {
     /// cannot be traced get [`Hit::NONE`] and never change the other rays' results.
     ///
     /// Each ray's hit equals [`Tracer::intersect`] on the same ray, bit for bit (`t`, `u`, `v`,
-    /// triangle id), on every ISA and with every culling setting but one
-    /// (`tests/packet_vs_scalar.rs` and `tests/culling_vs_none.rs` check this). The exception is
-    /// [`Frustum::Packet`] with planes on: its whole-packet traversal also tests triangles of
+    /// triangle id), on every ISA and with every culling setting but those whose packets may
+    /// traverse the tree as a whole ([`Culling::may_traverse_whole_packets`]: [`Frustum::Packet`],
+    /// and [`Frustum::Coherent`] of the default [`Culling::AUTO`] for coherent packets)
+    /// (`tests/packet_vs_scalar.rs` and `tests/culling_vs_none.rs` check this). There the
+    /// whole-packet traversal also tests triangles of
     /// leaves the ray's own traversal does not enter, and a ray's hit then differs exactly where
     /// such a test beats the per-ray hit — a smaller `t`, or an equal `t` with a smaller
     /// triangle id — with a hit the intersector reports for that triangle alone (a real hit,
@@ -317,33 +319,46 @@ impl<'t> Tracer<'t> {
         hits: &mut HitPacket,
         counters: &mut PacketCounters,
     ) {
-        match (self.intersector, self.culling.interval_traversal()) {
+        let q = PacketCall {
+            culling: self.packet_culling(packet, active),
+            packet,
+            active,
+        };
+        match (self.intersector, q.culling.interval_traversal()) {
             (Intersector::KenslerShirley, false) => {
-                self.closest_task::<packet::KsLanes, false>(packet, active, hits, counters)
+                self.closest_task::<packet::KsLanes, false>(q, hits, counters)
             }
             (Intersector::KenslerShirley, true) => {
-                self.closest_task::<packet::KsLanes, true>(packet, active, hits, counters)
+                self.closest_task::<packet::KsLanes, true>(q, hits, counters)
             }
-            (Intersector::Watertight, false) => self
-                .closest_task::<packet::WatertightLaneTest, false>(packet, active, hits, counters),
-            (Intersector::Watertight, true) => self
-                .closest_task::<packet::WatertightLaneTest, true>(packet, active, hits, counters),
+            (Intersector::Watertight, false) => {
+                self.closest_task::<packet::WatertightLaneTest, false>(q, hits, counters)
+            }
+            (Intersector::Watertight, true) => {
+                self.closest_task::<packet::WatertightLaneTest, true>(q, hits, counters)
+            }
         }
     }
 
-    /// The packet query of `packet`'s rays `active` in this tracer's tree, with its culling.
+    /// The culling the rays `active` of `packet` trace with ([`Culling::for_packet`], relative
+    /// to the tree's largest extent).
+    fn packet_culling(&self, packet: &RayPacket, active: u64) -> Culling {
+        let scale = self.tree.bounds().extent().max_element();
+        self.culling.for_packet(packet, active, scale)
+    }
+
+    /// The packet query of call `q` in this tracer's tree.
     fn query<'a>(
         &'a self,
-        packet: &'a RayPacket,
-        active: u64,
+        q: PacketCall<'a>,
         stack: &'a mut packet::Stack,
         counters: &'a mut PacketCounters,
     ) -> packet::Query<'a> {
         packet::Query {
             tree: self.tree,
-            packet,
-            active,
-            culling: self.culling,
+            packet: q.packet,
+            active: q.active,
+            culling: q.culling,
             stack,
             counters,
         }
@@ -353,14 +368,13 @@ impl<'t> Tracer<'t> {
     /// one ISA entry point per combination.
     fn closest_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
         &self,
-        packet: &RayPacket,
-        active: u64,
+        q: PacketCall<'_>,
         hits: &mut HitPacket,
         counters: &mut PacketCounters,
     ) {
         packet::with_stack(|stack| {
             let task = ClosestPacket::<F, INTERVAL> {
-                query: self.query(packet, active, stack, counters),
+                query: self.query(q, stack, counters),
                 hits,
                 test: PhantomData,
             };
@@ -369,8 +383,8 @@ impl<'t> Tracer<'t> {
     }
 
     /// The rays of `packet` whose bit is set in `active` that hit anything in `[tmin, tmax]`,
-    /// as a bit mask: [`Tracer::occluded`] of each ray, except that with [`Frustum::Packet`] a
-    /// ray may also be reported occluded by a real hit that only the whole-packet traversal's
+    /// as a bit mask: [`Tracer::occluded`] of each ray, except that where packets traverse the
+    /// tree as a whole ([`Culling::may_traverse_whole_packets`]) a ray may also be reported occluded by a real hit that only the whole-packet traversal's
     /// extra tests find (see [`Tracer::intersect_packet`]).
     #[must_use]
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
@@ -384,18 +398,23 @@ impl<'t> Tracer<'t> {
         active: u64,
         counters: &mut PacketCounters,
     ) -> u64 {
-        match (self.intersector, self.culling.interval_traversal()) {
+        let q = PacketCall {
+            culling: self.packet_culling(packet, active),
+            packet,
+            active,
+        };
+        match (self.intersector, q.culling.interval_traversal()) {
             (Intersector::KenslerShirley, false) => {
-                self.occluded_task::<packet::KsLanes, false>(packet, active, counters)
+                self.occluded_task::<packet::KsLanes, false>(q, counters)
             }
             (Intersector::KenslerShirley, true) => {
-                self.occluded_task::<packet::KsLanes, true>(packet, active, counters)
+                self.occluded_task::<packet::KsLanes, true>(q, counters)
             }
             (Intersector::Watertight, false) => {
-                self.occluded_task::<packet::WatertightLaneTest, false>(packet, active, counters)
+                self.occluded_task::<packet::WatertightLaneTest, false>(q, counters)
             }
             (Intersector::Watertight, true) => {
-                self.occluded_task::<packet::WatertightLaneTest, true>(packet, active, counters)
+                self.occluded_task::<packet::WatertightLaneTest, true>(q, counters)
             }
         }
     }
@@ -403,13 +422,12 @@ impl<'t> Tracer<'t> {
     /// [`Tracer::occluded_packet_counted`] with the test `F` and the traversal `INTERVAL`.
     fn occluded_task<F: packet::LaneTestFamily, const INTERVAL: bool>(
         &self,
-        packet: &RayPacket,
-        active: u64,
+        q: PacketCall<'_>,
         counters: &mut PacketCounters,
     ) -> u64 {
         packet::with_stack(|stack| {
             let task = OccludedPacket::<F, INTERVAL> {
-                query: self.query(packet, active, stack, counters),
+                query: self.query(q, stack, counters),
                 test: PhantomData,
             };
             self.dispatch.run(task)
@@ -446,6 +464,15 @@ pub(crate) fn single_ray<const ANY: bool>(
             accept,
         }),
     }
+}
+
+/// One packet call: its rays, which of them to trace, and the culling they trace with (the
+/// tracer's, its frustum resolved for these rays by [`Culling::for_packet`]).
+#[derive(Clone, Copy)]
+struct PacketCall<'a> {
+    packet: &'a RayPacket,
+    active: u64,
+    culling: Culling,
 }
 
 /// [`Tracer::intersect_packet`] as a task generic over the lanes, with the test `F` and the

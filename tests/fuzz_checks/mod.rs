@@ -12,7 +12,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use kdbeam::kernels::intersect::{kensler_shirley, watertight::WatertightRay};
 use kdbeam::kernels::KsTriangle;
-use kdbeam::trace::{Culling, Frustum};
+use kdbeam::trace::Culling;
 use kdbeam::{
     BuildParams, Error, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray,
     RayPacket, Tracer, Vec3,
@@ -93,7 +93,7 @@ pub fn obj_loader(data: &[u8]) {
         assert_eq!(again.as_ref().ok(), Some(&mesh), "a loaded mesh is valid");
         let tree = KdTree::build(&mesh, &BuildParams::default()).expect("a valid mesh builds");
         let rays = kdbeam::rays::random_rays(&mesh.bounds(), 16, data.len() as u64);
-        packets_equal_scalar(&tree, &rays, u64::MAX, Culling::AUTO);
+        packets_equal_scalar(&mesh, &tree, &rays, u64::MAX, Culling::AUTO);
     }
 }
 
@@ -190,7 +190,7 @@ fn decode_scene(data: &[u8]) -> (Mesh, BuildParams, Vec<Ray>, u64) {
 pub fn trace_packets(data: &[u8]) {
     let (mesh, params, rays, active) = decode_scene(data);
     let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
-    packets_equal_scalar(&tree, &rays, active, Culling::NONE);
+    packets_equal_scalar(&mesh, &tree, &rays, active, Culling::NONE);
 }
 
 /// The `culling` target: the scene and rays of [`trace_packets`], traced with the culling
@@ -198,23 +198,32 @@ pub fn trace_packets(data: &[u8]) {
 ///
 /// Checks: every single-ray, packet and stream path with culling equals the unculled scalar
 /// path bit for bit: no culling stage ever changes a hit. The packet traversal
-/// ([`Frustum::Packet`]) makes more tests than the scalar path: where it differs, its hit must
+/// ([`Culling::may_traverse_whole_packets`]) makes more tests than the scalar path: where it differs, its hit must
 /// win by [`wins_by_an_extra_test`].
 pub fn culling(data: &[u8]) {
     let (mesh, params, rays, active) = decode_scene(data);
     let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
     let settings = Culling::VARIANTS;
     let choice = settings[usize::from(data.last().copied().unwrap_or(0)) % settings.len()];
-    check_packets(Some(&mesh), &tree, &rays, active, choice);
+    check_packets(&mesh, &tree, &rays, active, choice);
 }
 
-/// Every packet path with `culling` equals the scalar path on `rays`, each packet's active rays
-/// chosen by `active` (shifted by the packet's place in the stream); streams too.
+/// Every packet path with `culling` equals the scalar path on `rays` through `tree` (built over
+/// `mesh`), each packet's active rays chosen by `active` (shifted by the packet's place in the
+/// stream); streams too.
 ///
 /// Tolerance: none. The lane kernels compute what the scalar ones do, operation for operation,
-/// so hits agree to the bit, ids and barycentrics included.
-pub fn packets_equal_scalar(tree: &KdTree, rays: &[Ray], active: u64, culling: Culling) {
-    check_packets(None, tree, rays, active, culling);
+/// so hits agree to the bit, ids and barycentrics included; but where packets may traverse the
+/// tree as a whole ([`Culling::may_traverse_whole_packets`], as the default does for coherent
+/// packets), a hit may instead win by [`wins_by_an_extra_test`].
+pub fn packets_equal_scalar(
+    mesh: &Mesh,
+    tree: &KdTree,
+    rays: &[Ray],
+    active: u64,
+    culling: Culling,
+) {
+    check_packets(mesh, tree, rays, active, culling);
 }
 
 /// Is `got` (from a traversal that makes a superset of the scalar path's tests: the packet
@@ -245,10 +254,10 @@ pub fn wins_by_an_extra_test(
     })
 }
 
-/// [`packets_equal_scalar`]; with `mesh` and the packet traversal, a hit may instead win by
-/// [`wins_by_an_extra_test`] (and then also count as occluding).
-fn check_packets(mesh: Option<&Mesh>, tree: &KdTree, rays: &[Ray], active: u64, culling: Culling) {
-    let relaxed = mesh.filter(|_| culling.is_enabled() && culling.frustum == Frustum::Packet);
+/// [`packets_equal_scalar`]; where packets may traverse as a whole, a hit may instead win by
+/// [`wins_by_an_extra_test`] on `mesh` (and then also count as occluding).
+fn check_packets(mesh: &Mesh, tree: &KdTree, rays: &[Ray], active: u64, culling: Culling) {
+    let relaxed = Some(mesh).filter(|_| culling.may_traverse_whole_packets());
     for intersector in Intersector::ALL {
         let scalar = Tracer::new(tree)
             .with_isa(Isa::Scalar)

@@ -8,7 +8,7 @@
 //! when the scalar traversal would enter that cell, lane for lane (see
 //! [`super::single::traverse`]), so the two find the same hits.
 //!
-//! The files: [`counters`] (what is counted), [`octants`] (which rays are traced, by octant),
+//! The files: [`coherence`] (which packets traverse as a whole), [`counters`] (what is counted), [`octants`] (which rays are traced, by octant),
 //! [`per_ray`] (the per-ray traversal), [`interval`] (the whole-packet traversal of
 //! [`super::Frustum::Packet`]), [`stack`] (its per-thread stack), [`visit`] (a packet in a leaf),
 //! [`lane_test`] (the ray–triangle tests of a group of lanes), [`closest_hits`] and
@@ -16,6 +16,7 @@
 
 mod any_hits;
 mod closest_hits;
+mod coherence;
 mod counters;
 mod interval;
 mod lane_test;
@@ -29,6 +30,7 @@ use kdbeam_kernels::{HitPacket, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use any_hits::AnyHits;
 pub(crate) use closest_hits::ClosestHits;
+pub(crate) use coherence::is_coherent;
 pub(crate) use counters::Stamp;
 pub use counters::{PacketCounters, StageCycles};
 use interval::traverse_octant_interval;
@@ -118,7 +120,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
 
 /// Closest hits of the rays of `q.active`, written to `hits` (misses and inactive or
 /// untraceable rays get [`kdbeam_kernels::Hit::NONE`]). `INTERVAL` must be
-/// `q.culling.interval_traversal()`: a type parameter, so that each entry point compiles one
+/// `q.culling.interval_traversal()` (its frustum resolved for the packet): a type parameter, so that each entry point compiles one
 /// traversal (a single entry holding every variant outgrows LLVM's inlining budget, and the
 /// lane intrinsics then stop being inlined).
 #[inline(always)]
