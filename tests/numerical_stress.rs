@@ -3,7 +3,9 @@
 //! (flat leaves), NaN and infinite lanes in packets, all-inactive packets, and the empty scene.
 //!
 //! Every scene also goes through `fuzz_checks::packets_equal_scalar`: every ISA, packet shape
-//! and intersector, packets and streams, equal to the scalar path bit for bit. Comparisons with
+//! and intersector, packets and streams, equal to the scalar path bit for bit (but for a hit
+//! that the default's whole-packet traversal of a coherent packet proves to win by an extra
+//! test; these rays are random, so their packets take the per-ray traversal). Comparisons with
 //! the f64 oracle state their tolerance where they make them.
 
 mod fuzz_checks;

@@ -468,9 +468,9 @@ impl fmt::Display for Culling {
 const GRAMMAR: &str = "a base (none, 4plane, 6plane or auto), optionally +aperture, +raybox and \
     one of +subspace|+subspace6|+subspace-exact|+subspace6-exact (single-ray stages alone are \
     none with them: raybox, subspace, raybox+subspace), then any of \
-    /masked|/maskless|/adaptive|/packet|/coherent, /distance-first|/aperture-first, /min-triangles=N, \
-    /min-rays=N, /raybox=off|auto (at most one of each kind, and no /raybox= with +raybox): e.g. \
-    6plane+aperture/masked/distance-first";
+    /masked|/maskless|/adaptive|/packet|/coherent, /distance-first|/aperture-first, \
+    /min-triangles=N, /min-rays=N, /raybox=off|auto (at most one of each kind, and no /raybox= \
+    with +raybox): e.g. 6plane+aperture/masked/distance-first";
 
 impl FromStr for Culling {
     type Err = Error;
@@ -484,11 +484,11 @@ impl FromStr for Culling {
     ///   ray-box culling ([`Culling::with_raybox`]), in either order; `raybox`
     ///   alone is `none+raybox`. Every preset of [`Culling::PRESETS`] is such a name
     ///   (`4plane+aperture`, `6plane+aperture`, `auto+raybox`).
-    /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`, `/coherent`), the order
-    ///   (`/aperture-first`, `/distance-first`), the leaves and visits that skip culling
-    ///   (`/min-triangles=N`, `/min-rays=N`), and where ray-box culling runs when the stage
-    ///   does not say (`/raybox=off`, `/raybox=auto`: [`RayBoxes`]; `auto` has it where it
-    ///   pays, the other bases nowhere), at most one of each kind, in any order.
+    /// - The options: the frustum (`/maskless`, `/masked`, `/adaptive`, `/packet`,
+    ///   `/coherent`), the order (`/aperture-first`, `/distance-first`), the leaves and visits
+    ///   that skip culling (`/min-triangles=N`, `/min-rays=N`), and where ray-box culling runs
+    ///   when the stage does not say (`/raybox=off`, `/raybox=auto`: [`RayBoxes`]; `auto` has
+    ///   it where it pays, the other bases nowhere), at most one of each kind, in any order.
     ///
     /// [`Culling::name`] prints every setting in this grammar, and it parses back to the same
     /// setting.

@@ -276,10 +276,10 @@ impl<'t> Tracer<'t> {
     /// Each ray's hit equals [`Tracer::intersect`] on the same ray, bit for bit (`t`, `u`, `v`,
     /// triangle id), on every ISA and with every culling setting but those whose packets may
     /// traverse the tree as a whole ([`Culling::may_traverse_whole_packets`]: [`Frustum::Packet`],
-    /// and [`Frustum::Coherent`] of the default [`Culling::AUTO`] for coherent packets)
-    /// (`tests/packet_vs_scalar.rs` and `tests/culling_vs_none.rs` check this). There the
-    /// whole-packet traversal also tests triangles of
-    /// leaves the ray's own traversal does not enter, and a ray's hit then differs exactly where
+    /// and [`Frustum::Coherent`] of the default [`Culling::AUTO`] for coherent packets);
+    /// `tests/packet_vs_scalar.rs` and `tests/culling_vs_none.rs` check this. The whole-packet
+    /// traversal also tests triangles of leaves the ray's own traversal does not enter, and a
+    /// ray's hit then differs exactly where
     /// such a test beats the per-ray hit — a smaller `t`, or an equal `t` with a smaller
     /// triangle id — with a hit the intersector reports for that triangle alone (a real hit,
     /// never a farther one; see [`Frustum::Packet`]).
@@ -384,8 +384,9 @@ impl<'t> Tracer<'t> {
 
     /// The rays of `packet` whose bit is set in `active` that hit anything in `[tmin, tmax]`,
     /// as a bit mask: [`Tracer::occluded`] of each ray, except that where packets traverse the
-    /// tree as a whole ([`Culling::may_traverse_whole_packets`]) a ray may also be reported occluded by a real hit that only the whole-packet traversal's
-    /// extra tests find (see [`Tracer::intersect_packet`]).
+    /// tree as a whole ([`Culling::may_traverse_whole_packets`]) a ray may also be reported
+    /// occluded by a real hit that only the whole-packet traversal's extra tests find (see
+    /// [`Tracer::intersect_packet`]).
     #[must_use]
     pub fn occluded_packet(&self, packet: &RayPacket, active: u64) -> u64 {
         self.occluded_packet_counted(packet, active, &mut PacketCounters::default())

@@ -197,33 +197,15 @@ pub fn trace_packets(data: &[u8]) {
 /// setting the input's last byte chooses.
 ///
 /// Checks: every single-ray, packet and stream path with culling equals the unculled scalar
-/// path bit for bit: no culling stage ever changes a hit. The packet traversal
-/// ([`Culling::may_traverse_whole_packets`]) makes more tests than the scalar path: where it differs, its hit must
-/// win by [`wins_by_an_extra_test`].
+/// path bit for bit: no culling stage ever changes a hit. The whole-packet traversal
+/// ([`Culling::may_traverse_whole_packets`]) makes more tests than the scalar path: where it
+/// differs, its hit must win by [`wins_by_an_extra_test`].
 pub fn culling(data: &[u8]) {
     let (mesh, params, rays, active) = decode_scene(data);
     let tree = KdTree::build(&mesh, &params).expect("valid parameters build");
     let settings = Culling::VARIANTS;
     let choice = settings[usize::from(data.last().copied().unwrap_or(0)) % settings.len()];
-    check_packets(&mesh, &tree, &rays, active, choice);
-}
-
-/// Every packet path with `culling` equals the scalar path on `rays` through `tree` (built over
-/// `mesh`), each packet's active rays chosen by `active` (shifted by the packet's place in the
-/// stream); streams too.
-///
-/// Tolerance: none. The lane kernels compute what the scalar ones do, operation for operation,
-/// so hits agree to the bit, ids and barycentrics included; but where packets may traverse the
-/// tree as a whole ([`Culling::may_traverse_whole_packets`], as the default does for coherent
-/// packets), a hit may instead win by [`wins_by_an_extra_test`].
-pub fn packets_equal_scalar(
-    mesh: &Mesh,
-    tree: &KdTree,
-    rays: &[Ray],
-    active: u64,
-    culling: Culling,
-) {
-    check_packets(mesh, tree, rays, active, culling);
+    packets_equal_scalar(&mesh, &tree, &rays, active, choice);
 }
 
 /// Is `got` (from a traversal that makes a superset of the scalar path's tests: the packet
@@ -254,10 +236,23 @@ pub fn wins_by_an_extra_test(
     })
 }
 
-/// [`packets_equal_scalar`]; where packets may traverse as a whole, a hit may instead win by
-/// [`wins_by_an_extra_test`] on `mesh` (and then also count as occluding).
-fn check_packets(mesh: &Mesh, tree: &KdTree, rays: &[Ray], active: u64, culling: Culling) {
-    let relaxed = Some(mesh).filter(|_| culling.may_traverse_whole_packets());
+/// Every packet path with `culling` equals the scalar path on `rays` through `tree` (built over
+/// `mesh`), each packet's active rays chosen by `active` (shifted by the packet's place in the
+/// stream); streams too.
+///
+/// Tolerance: none. The lane kernels compute what the scalar ones do, operation for operation,
+/// so hits agree to the bit, ids and barycentrics included; but where packets may traverse the
+/// tree as a whole ([`Culling::may_traverse_whole_packets`], as the default does for coherent
+/// packets), a hit may instead win by [`wins_by_an_extra_test`] on `mesh` (and then also count
+/// as occluding).
+pub fn packets_equal_scalar(
+    mesh: &Mesh,
+    tree: &KdTree,
+    rays: &[Ray],
+    active: u64,
+    culling: Culling,
+) {
+    let relaxed = culling.may_traverse_whole_packets().then_some(mesh);
     for intersector in Intersector::ALL {
         let scalar = Tracer::new(tree)
             .with_isa(Isa::Scalar)
