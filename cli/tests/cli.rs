@@ -1,5 +1,5 @@
-//! The command line as a user runs it: the README's main job, and the bench table's columns
-//! when a run leaves a baseline out.
+//! The command line as a user runs it: the README's main job, the bench table's columns when
+//! a run leaves a baseline out, and one row per setting that runs differently.
 
 use std::process::{Command, Output};
 
@@ -79,4 +79,51 @@ fn bench_without_the_scalar_path_shows_no_speedup_over_it() {
     let row: serde_json::Value = serde_json::from_str(json.lines().next().unwrap()).unwrap();
     assert!(row["speedup_vs_scalar"].is_null(), "{row}");
     assert!(row["mrays_per_s"].as_f64().unwrap() > 0.0, "{row}");
+}
+
+#[test]
+fn single_rays_get_a_row_per_setting_that_runs_differently() {
+    // `auto` runs ray-box culling on single rays on the scalar ISA only: on the portable
+    // lanes it runs as `none` does, so it gets no row of its own there.
+    let rows = |isa: &str| {
+        let out = kdbeam(&[
+            "bench",
+            "builtin:icosphere",
+            "--packet",
+            "1",
+            "--isa",
+            isa,
+            "--culling",
+            "none,auto",
+            "--size",
+            "8x8",
+            "--reps",
+            "1",
+            "--json",
+        ]);
+        String::from_utf8_lossy(&out.stdout).lines().count()
+    };
+    assert_eq!(rows("scalar"), 2);
+    assert_eq!(rows("portable"), 1);
+}
+
+#[test]
+fn synthetic_prints_the_baseline_once_when_asked_for_it() {
+    // `synthetic` runs on one thread and takes no `--threads`.
+    let out = Command::new(env!("CARGO_BIN_EXE_kdbeam"))
+        .args(["synthetic", "--isa", "scalar", "--culling", "none,4plane"])
+        .args(["--packets", "4", "--reps", "1", "--json"])
+        .output()
+        .expect("the kdbeam binary runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let cullings: Vec<String> = stdout
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["culling"].to_string())
+        .collect();
+    assert_eq!(cullings, ["\"none\"", "\"4plane\""], "{stdout}");
 }

@@ -236,16 +236,15 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
             let mut scalar = vec![None; pools.len()];
             for &packet in &packets {
                 for layout in rays.kdbeam_layouts(packet, &args.layout)? {
-                    // Single rays run only the culling's single-ray stages: a row per distinct one.
-                    let mut single = Vec::new();
-                    for c in args.culling.iter().map(Culling::single_ray_stages) {
-                        if !single.contains(&c) {
-                            single.push(c);
-                        }
-                    }
-                    let cullings = if packet == 1 { &single } else { &args.culling };
                     for ((threads, pool), scalar) in pools.iter().zip(&mut scalar) {
                         for &isa in &isas {
+                            let single;
+                            let cullings = if packet == 1 {
+                                single = single_ray_settings(&args.culling, isa);
+                                &single
+                            } else {
+                                &args.culling
+                            };
                             for &culling in cullings {
                                 let mut tracer = Tracer::new(&tree)
                                     .with_intersector(args.intersector)
@@ -448,6 +447,27 @@ impl RaysOf {
     fn embree_stream(&self) -> kdbeam_cli::embree::EmbreeRays {
         kdbeam_cli::embree::EmbreeRays::stream(&self.rays.rays)
     }
+}
+
+/// The settings of `cullings` that single rays on `isa` run differently: each reduced to its
+/// single-ray stages, and one row per distinct behaviour (ray-box culling `auto` runs on the
+/// scalar ISA only, so elsewhere it is the same as `off`).
+fn single_ray_settings(cullings: &[Culling], isa: Isa) -> Vec<Culling> {
+    let runs = |c: &Culling| {
+        let raybox = match c.raybox {
+            RayBoxes::Off => false,
+            RayBoxes::Auto => isa == Isa::Scalar,
+            RayBoxes::On => true,
+        };
+        (c.subspace, raybox)
+    };
+    let mut single: Vec<Culling> = Vec::new();
+    for c in cullings.iter().map(Culling::single_ray_stages) {
+        if !single.iter().any(|s| runs(s) == runs(&c)) {
+            single.push(c);
+        }
+    }
+    single
 }
 
 /// What [`measure`] found: the median seconds, ray–triangle tests per ray, and for single rays

@@ -116,7 +116,9 @@ pub(crate) fn run(args: SyntheticArgs) -> Result<()> {
                         ))
                     };
                     let baseline = measure(Culling::NONE, &mut hits)?;
-                    for c in std::iter::once(Culling::NONE).chain(args.culling.iter().copied()) {
+                    // The baseline's row once, even when `--culling` names `none` too.
+                    let settings = args.culling.iter().copied().filter(|&c| c != Culling::NONE);
+                    for c in std::iter::once(Culling::NONE).chain(settings) {
                         let m = if c == Culling::NONE {
                             baseline
                         } else {
