@@ -1,7 +1,8 @@
 //! The kd-tree finds what an exhaustive search finds.
 //!
 //! For every procedural scene and every shared scene, at `ci_over_ct` ∈ {0.1, 1, 10}, with
-//! ≥ 100k rays per scene (primary and random):
+//! ≥ 100k rays per scene (primary and random, and short segments such as ambient-occlusion
+//! rays, whose traversal starts below the root):
 //! 1. *Structure*: traversal with the f64 oracle in the leaves returns exactly the brute-force
 //!    oracle hit over all triangles: the same triangle id and the same f64 `t`, bit for bit
 //!    (the same oracle on the same ray and triangle). Equal `t` goes to the smaller id on both
@@ -22,11 +23,16 @@ mod common;
 use kdbeam::kernels::intersect::oracle::OracleRay;
 use kdbeam::rays::random_rays;
 use kdbeam::trace::reference::{brute_force, kd_oracle, ReferenceHit};
-use kdbeam::{BuildParams, Intersector, Isa, KdTree, Mesh, Ray, Tracer};
+use kdbeam::{BuildParams, Intersector, Isa, KdTree, Mesh, Ray, Tracer, Vec3};
 use rayon::prelude::*;
 
-/// 232 × 232 = 53,824 primary rays and as many random ones: 107,648 rays per scene.
+/// 232 × 232 = 53,824 primary rays and as many random ones: 107,648 rays per scene, and
+/// [`SHORT_RAYS`] short segments.
 const RAYS_PER_SET: u32 = 232;
+
+/// Segments of 0.2%, 2% and 20% of the scene's diagonal: half from random points, half leaving
+/// a triangle as ambient-occlusion rays do (from just above its centroid, on its normal's side).
+const SHORT_RAYS: usize = 8192;
 
 fn ray_sets(mesh: &Mesh) -> Vec<Ray> {
     let mut rays = common::primary_rays(mesh, RAYS_PER_SET, RAYS_PER_SET);
@@ -35,6 +41,27 @@ fn ray_sets(mesh: &Mesh) -> Vec<Ray> {
         (RAYS_PER_SET * RAYS_PER_SET) as usize,
         42,
     ));
+    let diag = mesh.bounds().extent().length();
+    let short = random_rays(&mesh.bounds(), SHORT_RAYS, 43);
+    rays.extend(short.into_iter().enumerate().map(|(i, r)| {
+        let tmax = [0.002, 0.02, 0.2][i % 3] * diag / r.direction.length();
+        let t = mesh.triangle(i * 7919 % mesh.triangle_count().max(1));
+        let n = (t.v1 - t.v0).cross(t.v2 - t.v0).normalize_or_zero();
+        if i % 2 == 0 || mesh.is_empty() || n == Vec3::ZERO {
+            return Ray { tmax, ..r };
+        }
+        let d = if r.direction.dot(n) < 0.0 {
+            -r.direction
+        } else {
+            r.direction
+        };
+        Ray {
+            origin: (t.v0 + t.v1 + t.v2) / 3.0 + n * (1e-3 * diag),
+            direction: d,
+            tmax,
+            ..r
+        }
+    }));
     rays
 }
 

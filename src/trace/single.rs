@@ -5,10 +5,13 @@
 //! leaf's triangles; traversal stops once the closest hit so far lies before the next cell.
 
 use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, LaneHits};
+use kdbeam_kernels::raybox::segment_box;
 use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{slab, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock, Vec3};
+use kdbeam_kernels::{
+    slab, Aabb, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock, Vec3,
+};
 
-use crate::kdtree::{KdTree, LeafRecord, LeafTriangles};
+use crate::kdtree::{KdTree, LeafRecord, LeafTriangles, Node};
 
 /// Deepest stack a traversal needs: the builder caps depth at 64.
 pub(crate) const STACK_DEPTH: usize = 64;
@@ -117,7 +120,9 @@ pub fn is_traceable(ray: &Ray) -> bool {
 ///
 /// The near child is chosen by the sign bit of the direction, and a child is entered when its
 /// part of the interval ([`split_intervals`]) is non-empty; this is the packet traversal's rule,
-/// lane for lane, so both visit the same leaves.
+/// lane for lane, so both visit the same leaves. The walk starts at the deepest node whose cell
+/// holds the ray's whole segment ([`entry_node`]), which passes only nodes where that rule
+/// enters one child with the interval unchanged.
 #[inline(always)]
 pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V) {
     if !is_traceable(ray) {
@@ -130,9 +135,10 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
         return;
     };
     let nodes = tree.nodes();
+    let segment = segment_box(ray.origin, ray.direction, t_enter, t_exit);
     let mut stack = [(0u32, 0f32, 0f32); STACK_DEPTH];
     let mut top = 0;
-    let mut node_index = 0u32;
+    let mut node_index = entry_node(nodes, &segment);
     let mut best_t = f32::INFINITY;
     loop {
         if t_enter <= best_t {
@@ -188,6 +194,38 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
         }
         top -= 1;
         (node_index, t_enter, t_exit) = stack[top];
+    }
+}
+
+/// The deepest node whose cell holds all of `segment`, the padded box of a ray's segment in the
+/// root cell ([`segment_box`]): where the ray's traversal starts.
+///
+/// A short ray (an ambient-occlusion or a shadow ray to a nearby light) lies in a small cell,
+/// and the traversal from the root would step down to it one inner node at a time, computing
+/// and clipping its interval at each. Here a step is two comparisons: the segment lies below
+/// the split (`max < split`: the below child), above it (`min > split`: the above child), or
+/// across it (stop). The traversal from the root visits no cell outside that node either: at
+/// each node passed, the segment stays clear of the split by more than the box's padding
+/// (2⁻¹⁵ of the coordinates' magnitude), far above the slack [`split_intervals`] gives a cell
+/// (2⁻²⁰), so the root traversal enters the same child with the same interval. A box with an
+/// infinite bound (a segment that overflows) stops at the root.
+#[inline(always)]
+fn entry_node(nodes: &[Node], segment: &Aabb) -> u32 {
+    let (lo, hi) = (segment.min.to_array(), segment.max.to_array());
+    let mut index = 0u32;
+    loop {
+        let node = nodes[index as usize];
+        if node.is_leaf() {
+            return index;
+        }
+        let (axis, split) = (node.axis(), node.split());
+        if hi[axis] < split {
+            index += 1;
+        } else if lo[axis] > split {
+            index = node.above_child();
+        } else {
+            return index;
+        }
     }
 }
 
