@@ -6,7 +6,7 @@ use std::str::FromStr;
 use kdbeam_kernels::beam::Stages;
 use kdbeam_kernels::RayPacket;
 
-use super::packet::is_coherent;
+use super::packet::{spread, MAX_BEAM_DIRECTION_SPREAD, MIN_BEAM_RAYS};
 use super::subspace::Subspace;
 use crate::{Error, Result};
 
@@ -53,14 +53,20 @@ pub enum Frustum {
     /// [`Tracer::intersect`]: crate::Tracer::intersect
     /// [`Tracer::occluded_packet`]: crate::Tracer::occluded_packet
     Packet,
-    /// [`Frustum::Packet`] for a packet whose rays are coherent (origins within 1/1024 of the
-    /// scene's extent of each other and unit directions within 0.02, on every axis: a camera's
-    /// tiles at 512² and above), else [`Frustum::Adaptive`] (rays that start on surfaces: shadow,
-    /// ambient-occlusion and diffuse rays, whose segments the one interval of the whole-packet
-    /// traversal bounds loosely). A coherent packet builds its beam on every leaf visit, whatever
-    /// [`Culling::min_triangles`] and [`Culling::min_rays`] say (they serve the per-ray
-    /// traversal): there a visit without one tests every triangle against every ray in the
-    /// leaf's box. Hits as [`Frustum::Packet`] documents.
+    /// Chosen per packet from how far apart its rays start and point (four of them compared):
+    /// - [`Frustum::Packet`] for coherent rays (origins within 1/1024 of the scene's extent of
+    ///   each other and unit directions within 0.02, on every axis: a camera's tiles at 512²
+    ///   and above). Such a packet builds its beam on every leaf visit, whatever
+    ///   [`Culling::min_triangles`] and [`Culling::min_rays`] say (they serve the per-ray
+    ///   traversal): there a visit without one tests every triangle against every ray in the
+    ///   leaf's box. Hits as [`Frustum::Packet`] documents;
+    /// - [`Frustum::Adaptive`] for more than 16 active rays whose unit directions lie within
+    ///   0.25 of each other but that start apart (a tile's shadow rays, converging on the
+    ///   light): the one interval of the whole-packet traversal would bound their segments
+    ///   loosely;
+    /// - no beam for the rest (ambient-occlusion and diffuse rays, and packets of at most 16
+    ///   rays), whose beams cost more than they cull; the setting's other stages (ray-box
+    ///   culling) stay.
     Coherent,
 }
 
@@ -300,21 +306,28 @@ impl Culling {
     }
 
     /// The setting the rays `active` of `packet` trace with, in a scene whose largest extent is
-    /// `scale`: [`Frustum::Coherent`] resolved to [`Frustum::Packet`] (with a beam on every leaf
-    /// visit) for coherent rays and to [`Frustum::Adaptive`] for others; any other setting as it
-    /// is.
+    /// `scale`: [`Frustum::Coherent`] resolved as it documents; any other setting as it is.
     pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, scale: f32) -> Culling {
-        match self.frustum {
-            Frustum::Coherent if self.is_enabled() && is_coherent(packet, active, scale) => {
-                Culling {
-                    frustum: Frustum::Packet,
-                    min_triangles: 1,
-                    min_rays: 1,
-                    ..self
-                }
+        if self.frustum != Frustum::Coherent || !self.is_enabled() {
+            return self;
+        }
+        let s = spread(packet, active, scale);
+        if s.is_coherent() {
+            Culling {
+                frustum: Frustum::Packet,
+                min_triangles: 1,
+                min_rays: 1,
+                ..self
             }
-            Frustum::Coherent => self.with_frustum(Frustum::Adaptive),
-            _ => self,
+        } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS
+            && s.direction <= MAX_BEAM_DIRECTION_SPREAD
+        {
+            self.with_frustum(Frustum::Adaptive)
+        } else {
+            Culling {
+                planes: Planes::None,
+                ..self
+            }
         }
     }
 
@@ -595,7 +608,39 @@ impl FromStr for Culling {
 mod tests {
     use std::collections::HashSet;
 
+    use kdbeam_kernels::{Ray, Vec3};
+
     use super::*;
+
+    #[test]
+    fn the_default_resolves_by_how_far_apart_a_packets_rays_are() {
+        let packet = |n: usize, ray: &dyn Fn(f32) -> Ray| {
+            let rays: Vec<Ray> = (0..n).map(|i| ray(i as f32 / n as f32)).collect();
+            RayPacket::from_rays(&rays)
+        };
+        let resolve = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), 1.0);
+        // A camera's tile: one origin, directions within 0.02.
+        let tile = packet(64, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
+        assert_eq!(resolve(&tile).frustum, Frustum::Packet);
+        // A tile's shadow rays: origins apart, converging on the light.
+        let light = Vec3::new(0.0, 0.0, 10.0);
+        let shadow = |f: f32| {
+            let o = Vec3::new(f * 0.3, 0.0, 0.0);
+            Ray::new(o, light - o)
+        };
+        let resolved = resolve(&packet(64, &shadow));
+        assert_eq!(
+            (resolved.frustum, resolved.planes),
+            (Frustum::Adaptive, Planes::Six)
+        );
+        // Sixteen of them, and rays over a hemisphere: no beam, ray-box culling kept.
+        let hemisphere = |f: f32| Ray::new(Vec3::ZERO, Vec3::new(f - 0.5, 0.3, 1.0 - f));
+        for p in [packet(16, &shadow), packet(64, &hemisphere)] {
+            let resolved = resolve(&p);
+            assert!(!resolved.is_enabled(), "{resolved:?}");
+            assert_eq!(resolved.raybox, RayBoxes::Auto);
+        }
+    }
 
     /// Every base, with and without the aperture test, ray-box culling and subspace stages.
     fn stage_lists() -> Vec<String> {

@@ -1,4 +1,5 @@
-//! Whether a packet's rays are coherent enough to traverse the tree as one interval
+//! How far apart a packet's rays start and point: whether they traverse the tree as one
+//! interval, and whether they build beams at all
 //! ([`Frustum::Coherent`](crate::trace::Frustum::Coherent)).
 
 use kdbeam_kernels::{RayPacket, Vec3};
@@ -20,23 +21,50 @@ pub(crate) const MAX_DIRECTION_SPREAD: f32 = 0.02;
 /// per-ray traversal serves them better.
 pub(crate) const MAX_ORIGIN_SPREAD: f32 = 1.0 / 1024.0;
 
-/// Do the rays `active` of `packet` start within [`MAX_ORIGIN_SPREAD`] `· scale` of each other
-/// and point within [`MAX_DIRECTION_SPREAD`] of each other (unit directions), on every axis?
-/// `scale` is the scene's largest extent.
+/// The widest spread of unit directions for which a packet that is not coherent still builds
+/// beams (with [`Frustum::Adaptive`](crate::trace::Frustum::Adaptive)): shadow rays of a tile,
+/// which converge on the light. Ambient-occlusion and diffuse rays spread far wider, and their
+/// beams cost more than they cull.
+pub(crate) const MAX_BEAM_DIRECTION_SPREAD: f32 = 0.25;
+
+/// Packets of at most this many active rays build no beam unless they are coherent: the beam's
+/// cost is not spread over enough rays.
+pub(crate) const MIN_BEAM_RAYS: u32 = 17;
+
+/// How far apart a packet's rays start and point: the spread, on the widest axis, of the unit
+/// directions and of the origins (relative to the scene's largest extent) of up to four of its
+/// rays ([`spread`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Spread {
+    pub direction: f32,
+    pub origin: f32,
+}
+
+impl Spread {
+    /// Within [`MAX_DIRECTION_SPREAD`] and [`MAX_ORIGIN_SPREAD`]?
+    pub(crate) fn is_coherent(self) -> bool {
+        self.direction <= MAX_DIRECTION_SPREAD && self.origin <= MAX_ORIGIN_SPREAD
+    }
+}
+
+/// The [`Spread`] of the rays `active` of `packet`; `scale` is the scene's largest extent.
 ///
 /// Up to four rays are compared (the first and last active ones and two between), not every
 /// ray: the answer chooses a traversal, which changes the speed only, never a hit beyond what
 /// [`Frustum::Packet`] documents, and a packet-wide pass (a square root and a division per ray)
 /// would cost a camera packet a large part of what the whole-packet traversal saves it. A
 /// direction that has no unit length (zero, or not finite) is left out, as the traversal
-/// leaves out its ray (and so is its origin); no rays at all are coherent.
+/// leaves out its ray (and so is its origin); no rays at all spread nowhere.
 ///
 /// [`Frustum::Packet`]: crate::trace::Frustum::Packet
 #[must_use]
-pub(crate) fn is_coherent(packet: &RayPacket, active: u64, scale: f32) -> bool {
+pub(crate) fn spread(packet: &RayPacket, active: u64, scale: f32) -> Spread {
     let active = active & packet.full_mask();
     if active == 0 {
-        return true;
+        return Spread {
+            direction: 0.0,
+            origin: 0.0,
+        };
     }
     let (first, last) = (active.trailing_zeros(), 63 - active.leading_zeros());
     let step = (last - first) / 3;
@@ -61,8 +89,18 @@ pub(crate) fn is_coherent(packet: &RayPacket, active: u64, scale: f32) -> bool {
             (o_lo, o_hi) = (o_lo.min(o), o_hi.max(o));
         }
     }
-    (hi - lo).max_element() <= MAX_DIRECTION_SPREAD
-        && (o_hi - o_lo).max_element() <= MAX_ORIGIN_SPREAD * scale
+    if lo.x > hi.x {
+        return Spread {
+            direction: 0.0,
+            origin: 0.0,
+        };
+    }
+    // Zero stays zero in a scene of no extent.
+    let origin = (o_hi - o_lo).max_element();
+    Spread {
+        direction: (hi - lo).max_element(),
+        origin: if origin == 0.0 { 0.0 } else { origin / scale },
+    }
 }
 
 #[cfg(test)]
@@ -70,6 +108,10 @@ mod tests {
     use kdbeam_kernels::Ray;
 
     use super::*;
+
+    fn is_coherent(packet: &RayPacket, active: u64, scale: f32) -> bool {
+        spread(packet, active, scale).is_coherent()
+    }
 
     fn packet(directions: &[Vec3]) -> RayPacket {
         let rays: Vec<Ray> = directions
