@@ -4,7 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use kdbeam_kernels::beam::Stages;
-use kdbeam_kernels::RayPacket;
+use kdbeam_kernels::{Isa, RayPacket};
 
 use super::packet::{spread, MAX_BEAM_DIRECTION_SPREAD, MIN_BEAM_RAYS};
 use super::subspace::Subspace;
@@ -266,11 +266,25 @@ impl Culling {
         Culling { raybox, ..self }
     }
 
-    /// Do single rays run ray-box culling, on scalar lanes (`scalar`) or on a vector of them?
-    pub(crate) fn raybox_single(&self, scalar: bool) -> bool {
+    /// Do single rays traced on `isa` run ray-box culling? [`RayBoxes::Auto`] runs it on
+    /// [`Isa::Scalar`] only.
+    ///
+    /// Two settings whose [`single_ray_stages`](Culling::single_ray_stages) agree on
+    /// [`subspace`](Culling::subspace) and on this answer trace single rays on `isa` the
+    /// same way.
+    ///
+    /// ```
+    /// use kdbeam::{Culling, Isa};
+    ///
+    /// assert!(Culling::AUTO.runs_raybox_on_single_rays(Isa::Scalar));
+    /// assert!(!Culling::AUTO.runs_raybox_on_single_rays(Isa::Avx2));
+    /// assert!(!Culling::NONE.runs_raybox_on_single_rays(Isa::Scalar));
+    /// ```
+    #[must_use]
+    pub fn runs_raybox_on_single_rays(&self, isa: Isa) -> bool {
         match self.raybox {
             RayBoxes::Off => false,
-            RayBoxes::Auto => scalar,
+            RayBoxes::Auto => isa == Isa::Scalar,
             RayBoxes::On => true,
         }
     }

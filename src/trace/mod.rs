@@ -236,7 +236,7 @@ impl<'t> Tracer<'t> {
         accept: impl FnMut(&Hit) -> bool,
     ) -> (bool, Hit, RayCounters) {
         let (dispatch, tree, intersector) = (self.dispatch, self.tree, self.intersector);
-        let raybox = self.culling.raybox_single(dispatch.isa() == Isa::Scalar);
+        let raybox = self.culling.runs_raybox_on_single_rays(dispatch.isa());
         match (self.culling.subspace, raybox) {
             (Some(s), false) => subspace::single_ray_culled::<ANY>(
                 dispatch,

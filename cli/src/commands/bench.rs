@@ -453,14 +453,7 @@ impl RaysOf {
 /// single-ray stages, and one row per distinct behaviour (ray-box culling `auto` runs on the
 /// scalar ISA only, so elsewhere it is the same as `off`).
 fn single_ray_settings(cullings: &[Culling], isa: Isa) -> Vec<Culling> {
-    let runs = |c: &Culling| {
-        let raybox = match c.raybox {
-            RayBoxes::Off => false,
-            RayBoxes::Auto => isa == Isa::Scalar,
-            RayBoxes::On => true,
-        };
-        (c.subspace, raybox)
-    };
+    let runs = |c: &Culling| (c.subspace, c.runs_raybox_on_single_rays(isa));
     let mut single: Vec<Culling> = Vec::new();
     for c in cullings.iter().map(Culling::single_ray_stages) {
         if !single.iter().any(|s| runs(s) == runs(&c)) {

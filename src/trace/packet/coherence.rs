@@ -41,6 +41,12 @@ pub(crate) struct Spread {
 }
 
 impl Spread {
+    /// No spread: one ray, or rays that start and point together.
+    pub(crate) const ZERO: Spread = Spread {
+        direction: 0.0,
+        origin: 0.0,
+    };
+
     /// Within [`MAX_DIRECTION_SPREAD`] and [`MAX_ORIGIN_SPREAD`]?
     pub(crate) fn is_coherent(self) -> bool {
         self.direction <= MAX_DIRECTION_SPREAD && self.origin <= MAX_ORIGIN_SPREAD
@@ -61,10 +67,7 @@ impl Spread {
 pub(crate) fn spread(packet: &RayPacket, active: u64, scale: f32) -> Spread {
     let active = active & packet.full_mask();
     if active == 0 {
-        return Spread {
-            direction: 0.0,
-            origin: 0.0,
-        };
+        return Spread::ZERO;
     }
     let (first, last) = (active.trailing_zeros(), 63 - active.leading_zeros());
     let step = (last - first) / 3;
@@ -90,10 +93,7 @@ pub(crate) fn spread(packet: &RayPacket, active: u64, scale: f32) -> Spread {
         }
     }
     if lo.x > hi.x {
-        return Spread {
-            direction: 0.0,
-            origin: 0.0,
-        };
+        return Spread::ZERO;
     }
     // Zero stays zero in a scene of no extent.
     let origin = (o_hi - o_lo).max_element();
