@@ -129,11 +129,26 @@ impl<L: Lanes> Beam<L> {
     /// in `F = {x' ∈ [0, dx], ymin(x') ≤ y' ≤ ymax(x'), zmin(x') ≤ z' ≤ zmax(x')}`, the convex
     /// hull of the two rectangles. A flat leaf (`dx = 0`) is widened first (Reshetov: the
     /// expansion costs nothing, since only the flat leaf's own triangles are tested).
+    ///
+    /// **A summary of the rays.** With `rays`, the [`BeamRays`] of the same rays `used` of `p`,
+    /// the crossings come from it in constant time (but for the far plane, which reads each
+    /// ray's best hit), for the same frustum up to a few ulps of its bounds. The rays share one
+    /// origin `o`, so in leaf-local coordinates every ray crosses `x' = 0` at
+    /// `y' = o'_y − o'_x·s_y` and `x' = dx` at `y' = o'_y + (dx − o'_x)·s_y`, its slope
+    /// `s_y = d_y/d_x'` the only term that differs between rays. Both are linear in the slope,
+    /// so over the rays they are extreme at the smallest and the largest slope. At `x' = 0` the
+    /// rounded `o'_y − o'_x·s_y` is monotonic in `s_y`, so its extremes are those found ray by
+    /// ray, bit for bit; at `x' = dx` the rounded sum of two terms is not, and can differ from
+    /// the ray-by-ray extreme by a few ulps of its magnitude, far below the margin `δ` (2⁻¹⁴ of
+    /// it) every bound is widened by. Likewise the starts and ends `o'_x + t·d_x'` are
+    /// monotonic in `t·d_x'`, whose extremes the summary keeps.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         l: L,
         p: &RayPacket,
         used: u64,
+        rays: Option<&BeamRays>,
         leaf: &Aabb,
         best_t: Option<(&[f32; MAX_PACKET_RAYS], u64)>,
         stages: Stages,
@@ -142,123 +157,40 @@ impl<L: Lanes> Beam<L> {
         if used == 0 || !leaf.min.is_finite() || !leaf.max.is_finite() {
             return None;
         }
-        let w = L::WIDTH;
-        let groups = group_count::<L>(p.len());
-        let inf = l.splat(f32::INFINITY);
-        // Prevalent axis: the largest smallest-|d| among sign-consistent axes.
-        let mut axis = None;
-        let mut best = 0.0f32;
-        for a in 0..3 {
-            let (mut lo, mut hi) = (inf, -inf);
-            for g in 0..groups {
-                let act = l.mask_from_bits(group_bits::<L>(used, g));
-                if act.none() {
-                    continue;
-                }
-                let d = l.load(&p.direction[a][g * w..]);
-                lo = L::F32::select(act, d, inf).min(lo);
-                hi = L::F32::select(act, d, -inf).max(hi);
+        let (slab, crossings) = match rays {
+            Some(rays) => {
+                let slab = Slab::enter(leaf, rays.axes, rays.sign);
+                let far = best_t.filter(|&(_, has_hit)| stages.distance && used & !has_hit == 0);
+                (slab, Crossings::of_summary(l, rays, p, used, &slab, far))
             }
-            let (lo, hi) = (lo.reduce_min(), hi.reduce_max());
-            let smallest = if lo > 0.0 {
-                lo
-            } else if hi < 0.0 {
-                -hi
-            } else {
-                0.0
-            };
-            if smallest > best && smallest.is_finite() {
-                best = smallest;
-                axis = Some((a, if lo > 0.0 { 1.0 } else { -1.0 }));
+            None => {
+                let (k, sign) = prevalent_axis(l, p, used)?;
+                let slab = Slab::enter(leaf, [k, (k + 1) % 3, (k + 2) % 3], sign);
+                (slab, Crossings::of_rays(l, p, used, &slab, best_t))
             }
-        }
-        let (k, sign) = axis?;
-        let axes = [k, (k + 1) % 3, (k + 2) % 3];
-        let ext = leaf.extent();
-        let mut corner = Vec3::new(leaf.min[axes[0]], leaf.min[axes[1]], leaf.min[axes[2]]);
-        let mut dx = ext[k];
-        if sign < 0.0 {
-            corner.x = leaf.max[k];
-        }
-        if dx <= 0.0 {
-            // Widen a flat leaf symmetrically so that `dx > 0` and the division below is safe.
-            let e = (ext.max_element() + corner.abs().max_element()) * (1.0 / 1024.0) + 1e-30;
-            corner.x -= sign * e;
-            dx = 2.0 * e;
-        }
-
-        // Crossings of every ray used with x' = 0 and x' = dx, and its start and end along x'.
-        let splat_c = [l.splat(corner.x), l.splat(corner.y), l.splat(corner.z)];
-        let (s, zero) = (l.splat(sign), l.splat(0.0));
-        let ldx = l.splat(dx);
-        let mut y0 = (inf, -inf);
-        let mut y1 = (inf, -inf);
-        let mut z0 = (inf, -inf);
-        let mut z1 = (inf, -inf);
-        let mut start_min = inf;
-        let mut start_max = -inf;
-        let mut end_min = inf;
-        let mut hit_max = -inf;
-        let mut mag = zero;
-        for g in 0..groups {
-            let act = l.mask_from_bits(group_bits::<L>(used, g));
-            if act.none() {
-                continue;
-            }
-            let b = g * w;
-            let ox = s * (l.load(&p.origin[axes[0]][b..]) - splat_c[0]);
-            let oy = l.load(&p.origin[axes[1]][b..]) - splat_c[1];
-            let oz = l.load(&p.origin[axes[2]][b..]) - splat_c[2];
-            let dxr = s * l.load(&p.direction[axes[0]][b..]);
-            let sy = l.load(&p.direction[axes[1]][b..]) / dxr;
-            let sz = l.load(&p.direction[axes[2]][b..]) / dxr;
-            let cy0 = oy - ox * sy;
-            let cz0 = oz - ox * sz;
-            let cy1 = cy0 + ldx * sy;
-            let cz1 = cz0 + ldx * sz;
-            y0 = widen::<L>(act, cy0, y0, inf);
-            y1 = widen::<L>(act, cy1, y1, inf);
-            z0 = widen::<L>(act, cz0, z0, inf);
-            z1 = widen::<L>(act, cz1, z1, inf);
-            let start = ox + l.load(&p.tmin[b..]) * dxr;
-            let end = ox + l.load(&p.tmax[b..]) * dxr;
-            start_min = L::F32::select(act, start, inf).min(start_min);
-            start_max = L::F32::select(act, start, -inf).max(start_max);
-            end_min = L::F32::select(act, end, inf).min(end_min);
-            if let Some((t, _)) = best_t {
-                let at = ox + l.load(&t[b..]) * dxr;
-                hit_max = L::F32::select(act, at, -inf).max(hit_max);
-            }
-            let m = ox
-                .abs()
-                .max(oy.abs())
-                .max(oz.abs())
-                .max(cy0.abs().max(cz0.abs()));
-            let m = m.max(cy1.abs().max(cz1.abs()));
-            mag = L::F32::select(act, m, zero).max(mag);
-        }
-        let lambda = mag.reduce_max() + dx + ext.max_element();
+        };
+        let (axes, sign, corner, dx) = (slab.axes, slab.sign, slab.corner, slab.dx);
+        let lambda = crossings.mag + dx + leaf.extent().max_element();
         let margin = lambda.max(scene_bound) * MARGIN;
         if !(margin.is_finite() && lambda.is_finite()) {
             return None;
         }
-        let (y00, y01) = (y0.0.reduce_min() - margin, y0.1.reduce_max() + margin);
-        let (y10, y11) = (y1.0.reduce_min() - margin, y1.1.reduce_max() + margin);
-        let (z00, z01) = (z0.0.reduce_min() - margin, z0.1.reduce_max() + margin);
-        let (z10, z11) = (z1.0.reduce_min() - margin, z1.1.reduce_max() + margin);
-        let start_max = start_max.reduce_max();
-        let end_min = end_min.reduce_min();
+        let (y00, y01) = (crossings.y0.0 - margin, crossings.y0.1 + margin);
+        let (y10, y11) = (crossings.y1.0 - margin, crossings.y1.1 + margin);
+        let (z00, z01) = (crossings.z0.0 - margin, crossings.z0.1 + margin);
+        let (z10, z11) = (crossings.z1.0 - margin, crossings.z1.1 + margin);
+        let (start_max, end_min) = (crossings.start_max, crossings.end_min);
 
         // Near: every ray used starts at x' >= near. Far: every ray used already has a hit at
         // x' <= far (only when all of them have one).
         let near = if stages.distance {
-            start_min.reduce_min() - margin
+            crossings.start_min - margin
         } else {
             f32::NEG_INFINITY
         };
         let far = match best_t {
             Some((_, has_hit)) if stages.distance && used & !has_hit == 0 => {
-                hit_max.reduce_max() + margin
+                crossings.hit_max + margin
             }
             _ => f32::INFINITY,
         };
@@ -548,6 +480,319 @@ impl<L: Lanes> Beam<L> {
             return Aperture::Occluder(s_max * self.dx + slack);
         }
         Aperture::Unknown
+    }
+}
+
+/// Where the rays a beam is built from cross the slab of its leaf, in leaf-local coordinates:
+/// the ranges of their `y'` and `z'` at `x' = 0` (`y0`, `z0`) and at `x' = dx` (`y1`, `z1`), the
+/// extremes of their starts and ends along `x'`, the farthest best hit (`-inf` when not needed)
+/// and the largest magnitude of any of these.
+struct Crossings {
+    y0: (f32, f32),
+    y1: (f32, f32),
+    z0: (f32, f32),
+    z1: (f32, f32),
+    start_min: f32,
+    start_max: f32,
+    end_min: f32,
+    hit_max: f32,
+    mag: f32,
+}
+
+impl Crossings {
+    /// The crossings of the rays `used` of `p` with `slab`, ray by ray.
+    #[inline(always)]
+    fn of_rays<L: Lanes>(
+        l: L,
+        p: &RayPacket,
+        used: u64,
+        slab: &Slab,
+        best_t: Option<(&[f32; MAX_PACKET_RAYS], u64)>,
+    ) -> Self {
+        let (axes, sign, corner, dx) = (slab.axes, slab.sign, slab.corner, slab.dx);
+        let w = L::WIDTH;
+        let inf = l.splat(f32::INFINITY);
+        let splat_c = [l.splat(corner.x), l.splat(corner.y), l.splat(corner.z)];
+        let (s, zero) = (l.splat(sign), l.splat(0.0));
+        let ldx = l.splat(dx);
+        let mut y0 = (inf, -inf);
+        let mut y1 = (inf, -inf);
+        let mut z0 = (inf, -inf);
+        let mut z1 = (inf, -inf);
+        let mut start_min = inf;
+        let mut start_max = -inf;
+        let mut end_min = inf;
+        let mut hit_max = -inf;
+        let mut mag = zero;
+        for g in 0..group_count::<L>(p.len()) {
+            let act = l.mask_from_bits(group_bits::<L>(used, g));
+            if act.none() {
+                continue;
+            }
+            let b = g * w;
+            let ox = s * (l.load(&p.origin[axes[0]][b..]) - splat_c[0]);
+            let oy = l.load(&p.origin[axes[1]][b..]) - splat_c[1];
+            let oz = l.load(&p.origin[axes[2]][b..]) - splat_c[2];
+            let dxr = s * l.load(&p.direction[axes[0]][b..]);
+            let sy = l.load(&p.direction[axes[1]][b..]) / dxr;
+            let sz = l.load(&p.direction[axes[2]][b..]) / dxr;
+            let cy0 = oy - ox * sy;
+            let cz0 = oz - ox * sz;
+            let cy1 = cy0 + ldx * sy;
+            let cz1 = cz0 + ldx * sz;
+            y0 = widen::<L>(act, cy0, y0, inf);
+            y1 = widen::<L>(act, cy1, y1, inf);
+            z0 = widen::<L>(act, cz0, z0, inf);
+            z1 = widen::<L>(act, cz1, z1, inf);
+            let start = ox + l.load(&p.tmin[b..]) * dxr;
+            let end = ox + l.load(&p.tmax[b..]) * dxr;
+            start_min = L::F32::select(act, start, inf).min(start_min);
+            start_max = L::F32::select(act, start, -inf).max(start_max);
+            end_min = L::F32::select(act, end, inf).min(end_min);
+            if let Some((t, _)) = best_t {
+                let at = ox + l.load(&t[b..]) * dxr;
+                hit_max = L::F32::select(act, at, -inf).max(hit_max);
+            }
+            let m = ox
+                .abs()
+                .max(oy.abs())
+                .max(oz.abs())
+                .max(cy0.abs().max(cz0.abs()));
+            let m = m.max(cy1.abs().max(cz1.abs()));
+            mag = L::F32::select(act, m, zero).max(mag);
+        }
+        Crossings {
+            y0: (y0.0.reduce_min(), y0.1.reduce_max()),
+            y1: (y1.0.reduce_min(), y1.1.reduce_max()),
+            z0: (z0.0.reduce_min(), z0.1.reduce_max()),
+            z1: (z1.0.reduce_min(), z1.1.reduce_max()),
+            start_min: start_min.reduce_min(),
+            start_max: start_max.reduce_max(),
+            end_min: end_min.reduce_min(),
+            hit_max: hit_max.reduce_max(),
+            mag: mag.reduce_max(),
+        }
+    }
+
+    /// The crossings of the rays `used` of `p` with `slab` from their summary `rays`, and
+    /// their farthest best hit only when `far` gives the best hits (else `-inf`).
+    #[inline(always)]
+    fn of_summary<L: Lanes>(
+        l: L,
+        rays: &BeamRays,
+        p: &RayPacket,
+        used: u64,
+        slab: &Slab,
+        far: Option<(&[f32; MAX_PACKET_RAYS], u64)>,
+    ) -> Self {
+        let (axes, sign, corner, dx) = (slab.axes, slab.sign, slab.corner, slab.dx);
+        let ox = sign * (rays.origin[axes[0]] - corner.x);
+        let oy = rays.origin[axes[1]] - corner.y;
+        let oz = rays.origin[axes[2]] - corner.z;
+        // Both ends of the slab at the extreme slopes, rounded as `of_rays` rounds them.
+        let (ya, yb) = (
+            ends(oy, ox, dx, rays.slope_y.0),
+            ends(oy, ox, dx, rays.slope_y.1),
+        );
+        let (za, zb) = (
+            ends(oz, ox, dx, rays.slope_z.0),
+            ends(oz, ox, dx, rays.slope_z.1),
+        );
+        let (y0, y1) = (
+            (ya.0.min(yb.0), ya.0.max(yb.0)),
+            (ya.1.min(yb.1), ya.1.max(yb.1)),
+        );
+        let (z0, z1) = (
+            (za.0.min(zb.0), za.0.max(zb.0)),
+            (za.1.min(zb.1), za.1.max(zb.1)),
+        );
+        let mut hit_max = f32::NEG_INFINITY;
+        if let Some((t, _)) = far {
+            let (s, ninf) = (l.splat(sign), l.splat(f32::NEG_INFINITY));
+            let mut hi = ninf;
+            for g in 0..group_count::<L>(p.len()) {
+                let act = l.mask_from_bits(group_bits::<L>(used, g));
+                if act.none() {
+                    continue;
+                }
+                let b = g * L::WIDTH;
+                let dxr = s * l.load(&p.direction[axes[0]][b..]);
+                hi = L::F32::select(act, l.load(&t[b..]) * dxr, ninf).max(hi);
+            }
+            hit_max = ox + hi.reduce_max();
+        }
+        let mut mag = ox.abs().max(oy.abs()).max(oz.abs());
+        for c in [y0.0, y0.1, y1.0, y1.1, z0.0, z0.1, z1.0, z1.1] {
+            mag = mag.max(c.abs());
+        }
+        Crossings {
+            y0,
+            y1,
+            z0,
+            z1,
+            start_min: ox + rays.start.0,
+            start_max: ox + rays.start.1,
+            end_min: ox + rays.end_min,
+            hit_max,
+            mag,
+        }
+    }
+}
+
+/// Where a ray from leaf-local `(ox, o)` with slope `slope` crosses `x' = 0` and `x' = dx`.
+#[inline(always)]
+fn ends(o: f32, ox: f32, dx: f32, slope: f32) -> (f32, f32) {
+    let c0 = o - ox * slope;
+    (c0, c0 + dx * slope)
+}
+
+/// What [`Beam::new`] needs of rays that start at one point, computed once for every
+/// leaf they visit together: the prevalent axis, the origin, and the extremes of the slopes
+/// and of the starts and ends along the axis.
+#[derive(Clone, Copy, Debug)]
+pub struct BeamRays {
+    axes: [usize; 3],
+    sign: f32,
+    origin: Vec3,
+    /// `(min, max)` of `d[axes[1]] / (sign·d[axes[0]])`.
+    slope_y: (f32, f32),
+    /// `(min, max)` of `d[axes[2]] / (sign·d[axes[0]])`.
+    slope_z: (f32, f32),
+    /// `(min, max)` of `tmin·sign·d[axes[0]]`.
+    start: (f32, f32),
+    /// The smallest `tmax·sign·d[axes[0]]`.
+    end_min: f32,
+}
+
+impl BeamRays {
+    /// The summary of the rays `used` of `p` for [`Beam::new`]; `None` when they do not
+    /// all start at one point (equal coordinates; a NaN origin never is), when no axis is
+    /// prevalent, or when `used` is empty (build their beams from the rays).
+    ///
+    /// Pinhole cameras' packets start at the eye; so do the tiles of any camera whose rays
+    /// share an origin.
+    #[inline(always)]
+    pub fn new<L: Lanes>(l: L, p: &RayPacket, used: u64) -> Option<Self> {
+        if used == 0 {
+            return None;
+        }
+        let first = used.trailing_zeros() as usize;
+        let origin = Vec3::new(p.origin[0][first], p.origin[1][first], p.origin[2][first]);
+        // First the origins, which most packets that are not a camera's fail, and most of
+        // those already at their last ray.
+        let last = 63 - used.leading_zeros() as usize;
+        if Vec3::new(p.origin[0][last], p.origin[1][last], p.origin[2][last]) != origin {
+            return None;
+        }
+        let o = [l.splat(origin.x), l.splat(origin.y), l.splat(origin.z)];
+        for g in 0..group_count::<L>(p.len()) {
+            let act = l.mask_from_bits(group_bits::<L>(used, g));
+            for (a, o) in o.iter().enumerate() {
+                // `eq` takes -0 for +0: the crossings come out the same from either.
+                if !(!l.load(&p.origin[a][g * L::WIDTH..]).eq(*o) & act).none() {
+                    return None;
+                }
+            }
+        }
+        let (k, sign) = prevalent_axis(l, p, used)?;
+        let axes = [k, (k + 1) % 3, (k + 2) % 3];
+        let (inf, s) = (l.splat(f32::INFINITY), l.splat(sign));
+        let (mut sy, mut sz, mut start) = ((inf, -inf), (inf, -inf), (inf, -inf));
+        let mut end_min = inf;
+        for g in 0..group_count::<L>(p.len()) {
+            let act = l.mask_from_bits(group_bits::<L>(used, g));
+            if act.none() {
+                continue;
+            }
+            let b = g * L::WIDTH;
+            let dxr = s * l.load(&p.direction[axes[0]][b..]);
+            sy = widen::<L>(act, l.load(&p.direction[axes[1]][b..]) / dxr, sy, inf);
+            sz = widen::<L>(act, l.load(&p.direction[axes[2]][b..]) / dxr, sz, inf);
+            start = widen::<L>(act, l.load(&p.tmin[b..]) * dxr, start, inf);
+            end_min = L::F32::select(act, l.load(&p.tmax[b..]) * dxr, inf).min(end_min);
+        }
+        Some(BeamRays {
+            axes,
+            sign,
+            origin,
+            slope_y: (sy.0.reduce_min(), sy.1.reduce_max()),
+            slope_z: (sz.0.reduce_min(), sz.1.reduce_max()),
+            start: (start.0.reduce_min(), start.1.reduce_max()),
+            end_min: end_min.reduce_min(),
+        })
+    }
+}
+
+/// The prevalent axis of the rays `used` of `p`, and its direction sign: among axes on which
+/// every ray used has a direction component of one non-zero sign, the one whose smallest `|d|`
+/// is largest; `None` when there is none.
+#[inline(always)]
+fn prevalent_axis<L: Lanes>(l: L, p: &RayPacket, used: u64) -> Option<(usize, f32)> {
+    let inf = l.splat(f32::INFINITY);
+    let mut axis = None;
+    let mut best = 0.0f32;
+    for a in 0..3 {
+        let (mut lo, mut hi) = (inf, -inf);
+        for g in 0..group_count::<L>(p.len()) {
+            let act = l.mask_from_bits(group_bits::<L>(used, g));
+            if act.none() {
+                continue;
+            }
+            let d = l.load(&p.direction[a][g * L::WIDTH..]);
+            lo = L::F32::select(act, d, inf).min(lo);
+            hi = L::F32::select(act, d, -inf).max(hi);
+        }
+        let (lo, hi) = (lo.reduce_min(), hi.reduce_max());
+        let smallest = if lo > 0.0 {
+            lo
+        } else if hi < 0.0 {
+            -hi
+        } else {
+            0.0
+        };
+        if smallest > best && smallest.is_finite() {
+            best = smallest;
+            axis = Some((a, if lo > 0.0 { 1.0 } else { -1.0 }));
+        }
+    }
+    axis
+}
+
+/// The slab of a leaf along a beam's prevalent axis `axes[0]` (then `axes[1]`, `axes[2]` are
+/// the leaf-local `y'` and `z'`), which rays moving with direction `sign` enter at `corner`
+/// (the leaf's lower corner on the other axes) and cross over a depth `dx`.
+#[derive(Clone, Copy)]
+struct Slab {
+    axes: [usize; 3],
+    sign: f32,
+    corner: Vec3,
+    dx: f32,
+}
+
+impl Slab {
+    /// The slab of a leaf with box `leaf`. A flat leaf is widened symmetrically (Reshetov: the
+    /// expansion costs nothing, since only the flat leaf's own triangles are tested), so that
+    /// `dx > 0`.
+    #[inline(always)]
+    fn enter(leaf: &Aabb, axes: [usize; 3], sign: f32) -> Self {
+        let k = axes[0];
+        let ext = leaf.extent();
+        let mut corner = Vec3::new(leaf.min[k], leaf.min[axes[1]], leaf.min[axes[2]]);
+        let mut dx = ext[k];
+        if sign < 0.0 {
+            corner.x = leaf.max[k];
+        }
+        if dx <= 0.0 {
+            let e = (ext.max_element() + corner.abs().max_element()) * (1.0 / 1024.0) + 1e-30;
+            corner.x -= sign * e;
+            dx = 2.0 * e;
+        }
+        Slab {
+            axes,
+            sign,
+            corner,
+            dx,
+        }
     }
 }
 

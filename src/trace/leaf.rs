@@ -76,6 +76,7 @@ impl LaneTask for LeafTask<'_, '_> {
                     packet_mask: all,
                     scene_bound: self.leaf.scene_bound,
                     boxes: None,
+                    shared_rays: None,
                 },
                 &mut counters,
             );

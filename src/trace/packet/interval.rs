@@ -1,6 +1,8 @@
 //! The whole-packet interval traversal of [`Frustum::Packet`]: one `[t_enter, t_exit]` for the
 //! whole packet, and a slab test per leaf to find the rays that can hit there.
 
+use std::cell::Cell;
+
 use kdbeam_kernels::groups::{group_bits, lane_rays, load_axes, take_group};
 use kdbeam_kernels::{slab, Aabb, LaneF32, LaneMask, Lanes, RayPacket};
 
@@ -124,6 +126,8 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     // The latest best hit of an unfinished ray: a cell entered after it is skipped. It only
     // changes in a leaf the rays were tested in.
     let mut latest = latest_best(l, live_mask, visitor.best_t());
+    // The rays stay `live_mask` in every leaf: their beams share one summary.
+    let shared_rays = Cell::new(None);
     loop {
         let node = nodes[node_index as usize];
         if !node.is_leaf() {
@@ -177,6 +181,7 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
                     packet_mask: live_mask,
                     scene_bound,
                     boxes: None,
+                    shared_rays: Some(&shared_rays),
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
                 latest = latest_best(l, live_mask & !done, visitor.best_t());

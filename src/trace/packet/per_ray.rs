@@ -136,6 +136,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                         t_enter: &*t_enter,
                         t_exit: &*t_exit,
                     }),
+                    shared_rays: None,
                 };
                 done |= visit_leaf(l, p, visit, visitor, counters);
             }

@@ -1,7 +1,9 @@
 //! A packet in a leaf: what it knows there, what a visitor does with it, and the blocks of
 //! triangles that survive the leaf's beam.
 
-use kdbeam_kernels::beam::{Beam, Survivors};
+use std::cell::Cell;
+
+use kdbeam_kernels::beam::{Beam, BeamRays, Survivors};
 use kdbeam_kernels::raybox::{overlapping_block, segment_box, BoxBlock};
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, Lanes, RayPacket, TriangleBlock, Vec3};
@@ -41,6 +43,10 @@ pub(crate) struct LeafVisit<'a> {
     pub scene_bound: f32,
     /// For ray-box culling of visits of few rays, when it is on.
     pub boxes: Option<LeafBoxes<'a>>,
+    /// Where a traversal whose rays stay the same from leaf to leaf (the whole-packet
+    /// traversal) keeps the [`BeamRays`] of `packet_mask`, made at its first beam: `None`
+    /// inside until then, `Some(None)` when the rays have no such summary.
+    pub shared_rays: Option<&'a Cell<Option<Option<BeamRays>>>>,
 }
 
 /// What a packet traversal does in each leaf.
@@ -95,21 +101,41 @@ pub(super) fn leaf_beam<L: Lanes>(
     counters: &mut PacketCounters,
 ) -> Option<Beam<L>> {
     let start = Stamp::now();
-    let beam = culling
-        .beam_rays(visit.triangles.len(), visit.mask, visit.packet_mask)
-        .and_then(|used| {
-            Beam::new(
-                l,
-                p,
-                used,
-                visit.bounds,
-                best,
-                culling.stages(),
-                visit.scene_bound,
-            )
-        });
+    // A `match`, not `Option::and_then`: its closure could stay out of the ISA's entry point.
+    let beam = match culling.beam_rays(visit.triangles.len(), visit.mask, visit.packet_mask) {
+        None => None,
+        Some(used) => {
+            let shared = match visit.shared_rays {
+                Some(cell) if used == visit.packet_mask => shared_rays(l, p, used, cell),
+                _ => None,
+            };
+            let (stages, bound) = (culling.stages(), visit.scene_bound);
+            // Two calls, each inlined with its own constant: the per-ray traversal, which never
+            // has a summary, compiles only the second.
+            match shared {
+                Some(rays) => Beam::new(l, p, used, Some(&rays), visit.bounds, best, stages, bound),
+                None => Beam::new(l, p, used, None, visit.bounds, best, stages, bound),
+            }
+        }
+    };
     start.add_to(&mut counters.cycles.beams);
     beam
+}
+
+/// The [`BeamRays`] of the rays `used` of `p`, kept in `cell` for the next leaf.
+#[inline(always)]
+fn shared_rays<L: Lanes>(
+    l: L,
+    p: &RayPacket,
+    used: u64,
+    cell: &Cell<Option<Option<BeamRays>>>,
+) -> Option<BeamRays> {
+    if let Some(known) = cell.get() {
+        return known;
+    }
+    let rays = BeamRays::new(l, p, used);
+    cell.set(Some(rays));
+    rays
 }
 
 /// The box around the segments of the rays of `mask` in the leaf's cell, each up to its best
