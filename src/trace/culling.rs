@@ -22,6 +22,10 @@ pub enum Planes {
     Six,
 }
 
+/// A leaf visit of the whole-packet traversal ([`Frustum::Packet`]) with fewer than one in
+/// this many of the packet's rays builds its beam around those rays only.
+const PACKET_MASKED_SHARE: u32 = 8;
+
 /// Which rays a beam is built around.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Frustum {
@@ -32,9 +36,12 @@ pub enum Frustum {
     /// Masked when fewer than half of the packet's rays are active in the leaf, else maskless.
     Adaptive,
     /// The whole packet, all the way down: the packet traverses the tree as one interval of
-    /// `t` (no per-ray masks), and every leaf it enters is culled by the beam of all its rays.
-    /// An inner node costs a few scalar operations instead of one split test per group of
-    /// lanes; the beam does the per-ray work. With no planes it is the per-ray traversal.
+    /// `t` (no per-ray masks), and every leaf it enters is culled by the beam of all its rays,
+    /// or of the rays that reach the leaf when they are fewer than an eighth of them (a beam of
+    /// all would then be mostly space they do not cross, as on a terrain of more triangles than
+    /// pixels, each leaf seen by a few rays of a tile). An inner node costs a few scalar
+    /// operations instead of one split test per group of lanes; the beam does the per-ray
+    /// work. With no planes it is the per-ray traversal.
     ///
     /// **Where its hits may differ from the per-ray path.** A leaf's rays are those whose
     /// segment up to their best hit meets the leaf's box, so a ray is also tested against the
@@ -368,9 +375,10 @@ impl Culling {
         }
         Some(match self.frustum {
             Frustum::Masked => active,
-            Frustum::Maskless | Frustum::Packet => packet,
+            Frustum::Maskless => packet,
             Frustum::Adaptive | Frustum::Coherent if 2 * n < packet.count_ones() => active,
-            Frustum::Adaptive | Frustum::Coherent => packet,
+            Frustum::Packet if n * PACKET_MASKED_SHARE < packet.count_ones() => active,
+            Frustum::Adaptive | Frustum::Coherent | Frustum::Packet => packet,
         })
     }
 
