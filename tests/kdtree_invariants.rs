@@ -8,7 +8,7 @@
 
 use std::collections::BTreeSet;
 
-use kdbeam::kdtree::LeafRecord;
+use kdbeam::kdtree::{LeafRecord, WideChild, WideNode, WIDE_STACK};
 use kdbeam::kernels::triangle::BLOCK;
 use kdbeam::kernels::{KsTriangle, TriangleBlock, Vec3};
 use kdbeam::{Aabb, BuildParams, Error, KdTree, Mesh, Triangle};
@@ -409,6 +409,10 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
         }
     }
 
+    // (g) the wide nodes reach every non-empty leaf once, inside boxes holding its tight box,
+    // and no deeper than their traversal's stack allows.
+    check_wide(tree)?;
+
     // (d) statistics agree with a recount.
     let s = tree.stats();
     let nonempty = leaves.iter().filter(|l| l.record.count > 0).count();
@@ -421,6 +425,7 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
         refs,
         leaves.iter().map(|l| l.depth).max().unwrap_or(0),
         tree.nodes().len() * 8
+            + tree.wide_nodes().bytes()
             + std::mem::size_of_val(tree.leaves())
             + leaves
                 .iter()
@@ -447,6 +452,82 @@ fn check(mesh: &Mesh, params: &BuildParams, tree: &KdTree) -> Result<(), String>
         ));
     }
     Ok(())
+}
+
+/// The wide nodes' invariants: each non-empty leaf record is the child of exactly one wide
+/// node, whose box for it holds the leaf's tight box; a node's box for a child node holds
+/// every box of that child; missing children have the empty box `(+inf, −inf)`; and a path
+/// from the root leaves at most `WIDE_STACK` children pending.
+fn check_wide(tree: &KdTree) -> Result<(), String> {
+    let nodes = tree.wide_nodes().nodes();
+    let child_box = |n: &WideNode, i: usize| {
+        let p = &n.planes;
+        Aabb::new(
+            Vec3::new(p[0][i], p[1][i], p[2][i]),
+            Vec3::new(p[3][i], p[4][i], p[5][i]),
+        )
+    };
+    let mut seen = vec![0u32; tree.leaves().len()];
+    let mut visited = vec![false; nodes.len()];
+    // (node, box its parent gave it, children pending along the path)
+    let mut work = vec![(
+        0usize,
+        Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY),
+        0usize,
+    )];
+    while let Some((at, outer, pending)) = work.pop() {
+        if std::mem::replace(&mut visited[at], true) {
+            return Err(format!("wide node {at} reached twice"));
+        }
+        let node = &nodes[at];
+        let children = node
+            .children
+            .iter()
+            .filter(|&&c| c != WideChild::NONE)
+            .count();
+        let pending = pending + children.saturating_sub(1);
+        if pending + 1 > WIDE_STACK {
+            return Err(format!("{pending} children pending at wide node {at}"));
+        }
+        for (i, &child) in node.children.iter().enumerate() {
+            let b = child_box(node, i);
+            if child == WideChild::NONE {
+                if b.min != Vec3::INFINITY || b.max != Vec3::NEG_INFINITY {
+                    return Err(format!("missing child {i} of wide node {at} has box {b:?}"));
+                }
+                continue;
+            }
+            if !outer.contains_box(&b) {
+                return Err(format!("wide node {at} child {i}: {b:?} outside {outer:?}"));
+            }
+            if child.is_node() {
+                work.push((child.index() as usize, b, pending));
+            } else {
+                let record = &tree.leaves()[child.index() as usize];
+                seen[child.index() as usize] += 1;
+                if record.count == 0 || !b.contains_box(&record.bounds) {
+                    return Err(format!(
+                        "wide node {at} child {i}: leaf {} of {} triangles, box {:?} in {b:?}",
+                        child.index(),
+                        record.count,
+                        record.bounds
+                    ));
+                }
+            }
+        }
+    }
+    if visited.contains(&false) {
+        return Err("a wide node is unreachable".into());
+    }
+    // Record 0 is the shared empty leaf; every other is reached once.
+    match seen.iter().skip(1).position(|&n| n != 1) {
+        Some(r) => Err(format!(
+            "leaf record {} reached {} times",
+            r + 1,
+            seen[r + 1]
+        )),
+        None => Ok(()),
+    }
 }
 
 fn build_and_check(mesh: &Mesh, params: &BuildParams) -> KdTree {

@@ -37,15 +37,40 @@ fn clip<F: LaneF32>(
     inv_direction: &[F; 3],
     [lo, hi]: [[F; 3]; 2],
     zero: F,
+    near: F,
+    far: F,
+) -> (F, F) {
+    let (mut enter, mut exit) = (lo, hi);
+    for k in 0..3 {
+        let backwards = inv_direction[k].lt(zero);
+        enter[k] = F::select(backwards, hi[k], lo[k]);
+        exit[k] = F::select(backwards, lo[k], hi[k]);
+    }
+    clip_planes(origin, inv_direction, enter, exit, near, far)
+}
+
+/// Clips `[near, far]` by three slabs given as the planes the ray enters and leaves them by:
+/// per axis `k`, `enter[k]` is the box's `min` where `inv_direction[k] >= 0` (`+0` included)
+/// and its `max` where it is negative (`−0` included), `exit[k]` the other.
+///
+/// This is the module's slab code after the choice of planes, for a caller that knows the
+/// signs already: one ray, its signs fixed, against a vector of boxes. It returns `(tnear,
+/// tfar)`; the boxes with `tnear <= tfar` are entered, with the module's rules for zero
+/// components, an origin on a plane and NaN. A lane whose box is empty as `min = +inf`,
+/// `max = −inf` gets `tnear = +inf` from any finite origin, so it is never entered.
+#[inline(always)]
+#[must_use]
+pub fn clip_planes<F: LaneF32>(
+    origin: &[F; 3],
+    inv_direction: &[F; 3],
+    enter: [F; 3],
+    exit: [F; 3],
     mut near: F,
     mut far: F,
 ) -> (F, F) {
     for k in 0..3 {
-        let backwards = inv_direction[k].lt(zero);
-        let enter = F::select(backwards, hi[k], lo[k]);
-        let exit = F::select(backwards, lo[k], hi[k]);
-        near = ((enter - origin[k]) * inv_direction[k]).max(near);
-        far = ((exit - origin[k]) * inv_direction[k]).min(far);
+        near = ((enter[k] - origin[k]) * inv_direction[k]).max(near);
+        far = ((exit[k] - origin[k]) * inv_direction[k]).min(far);
     }
     (near, far)
 }

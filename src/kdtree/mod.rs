@@ -10,6 +10,7 @@ mod sah;
 mod stats;
 mod subspace;
 mod triangle_boxes;
+mod wide;
 
 use std::sync::OnceLock;
 
@@ -21,6 +22,7 @@ pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
 pub use subspace::{LeafMask, SubspaceMasks, SubspaceResolution};
+pub use wide::{WideChild, WideNode, WideNodes, BOX_PAD, WIDE, WIDE_STACK};
 
 use crate::{Error, Result};
 
@@ -249,6 +251,8 @@ pub struct KdTree {
     nodes: Vec<Node>,
     leaves: Vec<LeafRecord>,
     blocks: Vec<TriangleBlock>,
+    /// The same tree in wide nodes, for single rays.
+    wide: WideNodes,
     bounds: Aabb,
     mesh_triangles: usize,
     stats: BuildStats,
@@ -264,6 +268,14 @@ impl KdTree {
     #[must_use]
     pub fn nodes(&self) -> &[Node] {
         &self.nodes
+    }
+
+    /// The tree collapsed into nodes of up to [`WIDE`] children with their geometry's boxes,
+    /// which single rays on SIMD lanes traverse; their leaves are [`KdTree::leaves`].
+    #[inline(always)]
+    #[must_use]
+    pub fn wide_nodes(&self) -> &WideNodes {
+        &self.wide
     }
 
     /// Leaf records, indexed by [`Node::leaf_record`].

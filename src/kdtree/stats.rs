@@ -22,7 +22,7 @@ pub struct BuildStats {
     pub triangle_refs: usize,
     /// Deepest leaf (the root has depth 0).
     pub max_depth: u32,
-    /// Bytes of nodes, leaf records and leaf-ordered triangle arrays.
+    /// Bytes of nodes, wide nodes, leaf records and leaf-ordered triangle arrays.
     pub bytes: usize,
     /// Wall-clock time of the build.
     pub build_time: Duration,

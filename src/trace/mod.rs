@@ -13,6 +13,7 @@ mod single;
 mod stream;
 mod subspace;
 pub mod synthetic;
+mod wide;
 
 use std::marker::PhantomData;
 

@@ -1,8 +1,10 @@
 //! Single-ray kd-tree traversal: on scalar lanes, the reference every packet path is checked
-//! against; on SIMD lanes, one ray against a vector of a leaf block's triangles per test.
+//! against; on SIMD lanes, one ray against a vector of a leaf block's triangles per test, and
+//! against a vector of child boxes per step of the tree's wide nodes ([`super::wide`]).
 //!
-//! Front to back with a stack, as in pbrt's `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a
-//! leaf's triangles; traversal stops once the closest hit so far lies before the next cell.
+//! On scalar lanes, front to back through the binary nodes with a stack, as in pbrt's
+//! `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a leaf's triangles; traversal stops once
+//! the closest hit so far lies before the next cell.
 
 use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, LaneHits};
 use kdbeam_kernels::raybox::segment_box;
@@ -173,16 +175,8 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
                 }
             } else {
                 let index = node.leaf_record();
-                let record = &tree.leaves()[index as usize];
-                if record.count > 0 {
-                    let leaf = LeafEntry {
-                        index,
-                        record,
-                        triangles: tree.leaf_triangles(record),
-                        t_enter,
-                        t_exit,
-                    };
-                    match visitor.visit(leaf) {
+                if tree.leaves()[index as usize].count > 0 {
+                    match visit_leaf(tree, index, t_enter, t_exit, visitor) {
                         Some(t) => best_t = t,
                         None => return,
                     }
@@ -194,6 +188,36 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
         }
         top -= 1;
         (node_index, t_enter, t_exit) = stack[top];
+    }
+}
+
+/// What `visitor` answers in the leaf of record `index`, entered over `[t_enter, t_exit]`.
+#[inline(always)]
+pub(crate) fn visit_leaf<V: LeafVisitor>(
+    tree: &KdTree,
+    index: u32,
+    t_enter: f32,
+    t_exit: f32,
+    visitor: &mut V,
+) -> Option<f32> {
+    let record = &tree.leaves()[index as usize];
+    visitor.visit(LeafEntry {
+        index,
+        record,
+        triangles: tree.leaf_triangles(record),
+        t_enter,
+        t_exit,
+    })
+}
+
+/// The traversal of single rays on `L`: the binary one on scalar lanes (the reference), the
+/// wide nodes' on SIMD lanes, a vector of child boxes per step ([`super::wide::traverse`]).
+#[inline(always)]
+fn traverse_lanes<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray, visitor: &mut V) {
+    if L::WIDTH == 1 {
+        traverse(tree, ray, visitor);
+    } else {
+        super::wide::traverse(l.up_to_8(), tree, ray, visitor);
     }
 }
 
@@ -446,7 +470,7 @@ pub(crate) fn closest_hit<L: Lanes>(
         hit: Hit::NONE,
         counters: RayCounters::default(),
     };
-    traverse(tree, ray, &mut v);
+    traverse_lanes(l, tree, ray, &mut v);
     (v.hit, v.counters)
 }
 
@@ -522,7 +546,7 @@ pub(crate) fn any_hit<L: Lanes>(
         found: false,
         counters: RayCounters::default(),
     };
-    traverse(tree, ray, &mut v);
+    traverse_lanes(l, tree, ray, &mut v);
     (v.found, v.counters)
 }
 

@@ -70,6 +70,7 @@ impl Lanes for Avx {
     type F32 = AvxF32;
     type Mask = AvxMask;
     type Count = AvxCount;
+    type UpTo8 = Avx;
 
     #[inline(always)]
     fn splat(self, x: f32) -> AvxF32 {
@@ -98,6 +99,10 @@ impl Lanes for Avx {
     #[inline(always)]
     fn zero_counts(self) -> AvxCount {
         AvxCount(proven!(_mm256_setzero_si256()))
+    }
+    #[inline(always)]
+    fn up_to_8(self) -> Self {
+        self
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {

@@ -3,6 +3,7 @@
 use core::arch::x86_64::*;
 use core::ops::{Add, BitAnd, BitOr, BitXor, Div, Mul, Neg, Not, Sub};
 
+use super::avx::Avx;
 use super::proof::proven;
 use super::sse::{reduce_max128, reduce_min128};
 use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
@@ -70,6 +71,7 @@ impl Lanes for Avx512 {
     type F32 = Avx512F32;
     type Mask = Avx512Mask;
     type Count = Avx512Count;
+    type UpTo8 = Avx;
 
     #[inline(always)]
     fn splat(self, x: f32) -> Avx512F32 {
@@ -97,6 +99,11 @@ impl Lanes for Avx512 {
     #[inline(always)]
     fn zero_counts(self) -> Avx512Count {
         Avx512Count(proven!(_mm512_setzero_si512()))
+    }
+    #[inline(always)]
+    fn up_to_8(self) -> Avx {
+        // SAFETY: `self` exists, so the CPU supports AVX2 and FMA, all an `Avx` promises.
+        unsafe { Avx::new_unchecked() }
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {

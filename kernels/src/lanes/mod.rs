@@ -68,6 +68,9 @@ pub trait Lanes: Copy + Debug + Send + Sync + 'static {
     type Mask: LaneMask;
     /// A vector of `WIDTH` counters of set mask lanes.
     type Count: LaneCount<Mask = Self::Mask, F32 = Self::F32>;
+    /// The widest lanes of this CPU with at most 8 of them, for data laid out 8 wide (the
+    /// children of a wide kd-tree node): `Self` up to 8 lanes, AVX2 under AVX-512.
+    type UpTo8: Lanes;
 
     /// All lanes equal to `x`.
     fn splat(self, x: f32) -> Self::F32;
@@ -79,6 +82,8 @@ pub trait Lanes: Copy + Debug + Send + Sync + 'static {
     fn mask_from_bits(self, bits: u32) -> Self::Mask;
     /// Counters at zero in every lane.
     fn zero_counts(self) -> Self::Count;
+    /// The token of [`Lanes::UpTo8`], which holding `self` proves the CPU runs.
+    fn up_to_8(self) -> Self::UpTo8;
     /// Runs `task` compiled for this ISA (inside a `#[target_feature]` function where needed).
     fn run<T: LaneTask>(self, task: T) -> T::Output;
 }

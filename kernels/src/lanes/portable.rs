@@ -38,6 +38,7 @@ impl Lanes for Portable {
     type F32 = PortableF32;
     type Mask = PortableMask;
     type Count = PortableCount;
+    type UpTo8 = Portable;
 
     #[inline(always)]
     fn splat(self, x: f32) -> PortableF32 {
@@ -60,6 +61,10 @@ impl Lanes for Portable {
     #[inline(always)]
     fn zero_counts(self) -> PortableCount {
         PortableCount(i32x4::splat(0))
+    }
+    #[inline(always)]
+    fn up_to_8(self) -> Self {
+        self
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {

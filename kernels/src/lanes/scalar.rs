@@ -12,6 +12,7 @@ impl Lanes for Scalar {
     type F32 = f32;
     type Mask = bool;
     type Count = u32;
+    type UpTo8 = Scalar;
 
     #[inline(always)]
     fn splat(self, x: f32) -> f32 {
@@ -32,6 +33,10 @@ impl Lanes for Scalar {
     #[inline(always)]
     fn zero_counts(self) -> u32 {
         0
+    }
+    #[inline(always)]
+    fn up_to_8(self) -> Self {
+        self
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {

@@ -65,6 +65,7 @@ impl Lanes for Sse {
     type F32 = SseF32;
     type Mask = SseMask;
     type Count = SseCount;
+    type UpTo8 = Sse;
 
     #[inline(always)]
     fn splat(self, x: f32) -> SseF32 {
@@ -93,6 +94,10 @@ impl Lanes for Sse {
     #[inline(always)]
     fn zero_counts(self) -> SseCount {
         SseCount(proven!(_mm_setzero_si128()))
+    }
+    #[inline(always)]
+    fn up_to_8(self) -> Self {
+        self
     }
     #[inline(always)]
     fn run<T: LaneTask>(self, task: T) -> T::Output {

@@ -59,6 +59,7 @@ impl KdTree {
             nodes: Vec::new(),
             leaves: Vec::new(),
             blocks: Vec::new(),
+            wide: Default::default(),
             bounds: Aabb::EMPTY,
             mesh_triangles: 0,
             stats: BuildStats::default(),
@@ -209,6 +210,7 @@ impl KdTreeBuilder {
             &mut tree.blocks,
             mesh_triangles,
         );
+        tree.wide.build(&tree.nodes, &tree.leaves);
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         tree.triangle_boxes = OnceLock::new();
@@ -224,7 +226,8 @@ impl KdTreeBuilder {
             max_depth,
             bytes: nodes.len() * size_of::<Node>()
                 + leaves.len() * size_of::<LeafRecord>()
-                + blocks.len() * size_of::<TriangleBlock>(),
+                + blocks.len() * size_of::<TriangleBlock>()
+                + tree.wide.bytes(),
             build_time,
         };
         Ok(())

@@ -1,0 +1,210 @@
+//! Wide nodes: the kd-tree seen by single rays, three levels and more at a time, with boxes.
+//!
+//! A single ray steps through a binary kd-tree one split at a time, and most of the cells it
+//! crosses around a surface are empty (the SAH's empty-space cuts): a short ray from a surface
+//! visits dozens of inner nodes for one or two leaves that hold triangles. The wide nodes
+//! collapse the tree into nodes of up to [`WIDE`] children, each child with the box of the
+//! geometry below it: the tight boxes of its non-empty leaves, joined. A ray tests all the
+//! children's boxes of a node in one SIMD step, as Embree's BVH8 does, and never enters empty
+//! space, as the boxes hold only geometry. The children are disjoint kd-tree cells (a box lies
+//! in its child's cell), and the leaves are the tree's own leaves, so the packet paths and the
+//! single rays read one leaf layout.
+//!
+//! Every box is padded outward by [`BOX_PAD`] of its size and position: a triangle's part in a
+//! cell, clipped with rounding, and a hit that the triangle test reports on its edge lie inside
+//! the padded box of every leaf that holds the triangle.
+
+use kdbeam_kernels::{Aabb, Vec3};
+
+use super::{LeafRecord, Node};
+
+/// Children per wide node.
+pub const WIDE: usize = 8;
+
+/// Relative padding of the children's boxes (2⁻¹⁸ of their extent plus their coordinates'
+/// magnitude): far above the rounding of a clipped triangle's bounds and of a triangle test's
+/// edge functions, which are a few ulps (2⁻²³).
+pub const BOX_PAD: f32 = 1.0 / 262_144.0;
+
+/// Pending entries a traversal of wide nodes can hold: each node leaves at most `WIDE - 1`
+/// children for later, and a path from the root meets at most 22 nodes, as each wide node
+/// spans at least three levels of a tree at most 64 deep ([`WideNodes::build`]).
+pub const WIDE_STACK: usize = 22 * (WIDE - 1) + 1;
+
+/// A child of a wide node: a wide node, a non-empty leaf or nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WideChild(u32);
+
+const LEAF_BIT: u32 = 1 << 31;
+
+impl WideChild {
+    /// No child: its box is empty, so no ray enters it.
+    pub const NONE: WideChild = WideChild(u32::MAX);
+
+    /// The wide node of index `index`.
+    #[inline(always)]
+    #[must_use]
+    pub fn node(index: u32) -> WideChild {
+        debug_assert!(index < LEAF_BIT);
+        WideChild(index)
+    }
+
+    /// The leaf of record `record` (a [`Node::leaf_record`], below 2³⁰).
+    #[inline(always)]
+    #[must_use]
+    pub fn leaf(record: u32) -> WideChild {
+        debug_assert!(record < LEAF_BIT);
+        WideChild(record | LEAF_BIT)
+    }
+
+    /// Is this a wide node (as opposed to a leaf or nothing)?
+    #[inline(always)]
+    #[must_use]
+    pub fn is_node(self) -> bool {
+        self.0 & LEAF_BIT == 0
+    }
+
+    /// The wide node's index, or the leaf's record: whichever this child is.
+    #[inline(always)]
+    #[must_use]
+    pub fn index(self) -> u32 {
+        self.0 & !LEAF_BIT
+    }
+}
+
+/// Up to [`WIDE`] children and their padded boxes, in structure-of-arrays form.
+#[repr(C, align(32))]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WideNode {
+    /// `planes[a][i]`: the `min` (`a` = axis 0, 1, 2) and `max` (`a` = 3 + axis) of child
+    /// `i`'s box; `+inf` and `−inf` for [`WideChild::NONE`].
+    pub planes: [[f32; WIDE]; 6],
+    /// The children, in no particular order.
+    pub children: [WideChild; WIDE],
+}
+
+impl WideNode {
+    /// A node without children.
+    const NONE: WideNode = WideNode {
+        planes: [
+            [f32::INFINITY; WIDE],
+            [f32::INFINITY; WIDE],
+            [f32::INFINITY; WIDE],
+            [f32::NEG_INFINITY; WIDE],
+            [f32::NEG_INFINITY; WIDE],
+            [f32::NEG_INFINITY; WIDE],
+        ],
+        children: [WideChild::NONE; WIDE],
+    };
+}
+
+/// The wide nodes of a kd-tree, root first.
+#[derive(Clone, Debug, Default)]
+pub struct WideNodes {
+    nodes: Vec<WideNode>,
+}
+
+impl WideNodes {
+    /// The nodes; node 0 is the root (without children for a tree with no triangles).
+    #[inline(always)]
+    #[must_use]
+    pub fn nodes(&self) -> &[WideNode] {
+        &self.nodes
+    }
+
+    /// Bytes the nodes take.
+    #[must_use]
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * size_of::<WideNode>()
+    }
+
+    /// Replaces the nodes with those of the tree `nodes` (root first, depth first) whose leaves
+    /// are `leaves`.
+    ///
+    /// Each wide node takes a subtree's root and opens, breadth first, the shallowest inner
+    /// node among its children until it has [`WIDE`] of them or only leaves, dropping subtrees
+    /// that hold no triangle. Breadth first, every inner child lies at least three levels below
+    /// the node's own root (two levels hold at most four nodes, and opening each of them adds
+    /// at most one child), so that a path meets at most ⌈64 / 3⌉ wide nodes in a tree at most
+    /// 64 deep: what [`WIDE_STACK`] holds.
+    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord]) {
+        self.nodes.clear();
+        let boxes = subtree_boxes(nodes, leaves);
+        self.nodes.push(WideNode::NONE);
+        let mut work = vec![(0u32, 0usize)];
+        while let Some((root, at)) = work.pop() {
+            let mut slots = [(0u32, 0u32); WIDE];
+            let mut len = 0;
+            if !boxes[root as usize].is_empty() {
+                slots[0] = (root, 0);
+                len = 1;
+            }
+            while len < WIDE {
+                let shallowest = slots[..len]
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, &(n, _))| !nodes[n as usize].is_leaf())
+                    .min_by_key(|(_, &(_, depth))| depth)
+                    .map(|(i, _)| i);
+                let Some(i) = shallowest else { break };
+                let (n, depth) = slots[i];
+                slots[i] = slots[len - 1];
+                len -= 1;
+                for child in [n + 1, nodes[n as usize].above_child()] {
+                    if !boxes[child as usize].is_empty() {
+                        slots[len] = (child, depth + 1);
+                        len += 1;
+                    }
+                }
+            }
+            let mut node = WideNode::NONE;
+            for (i, &(n, _)) in slots[..len].iter().enumerate() {
+                let b = boxes[n as usize];
+                for axis in 0..3 {
+                    node.planes[axis][i] = b.min[axis];
+                    node.planes[3 + axis][i] = b.max[axis];
+                }
+                node.children[i] = if nodes[n as usize].is_leaf() {
+                    WideChild::leaf(nodes[n as usize].leaf_record())
+                } else {
+                    let index = self.nodes.len();
+                    self.nodes.push(WideNode::NONE);
+                    work.push((n, index));
+                    WideChild::node(index as u32)
+                };
+            }
+            self.nodes[at] = node;
+        }
+    }
+}
+
+/// The padded box of every subtree's leaves, by node: children follow their parent in
+/// `nodes`, so one backward pass joins them.
+fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord]) -> Vec<Aabb> {
+    let mut boxes = vec![Aabb::EMPTY; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let node = nodes[i];
+        boxes[i] = if node.is_leaf() {
+            let leaf = &leaves[node.leaf_record() as usize];
+            match (leaf.count, leaf.bounds.is_empty()) {
+                (0, _) => Aabb::EMPTY,
+                // The builder never makes this; were it to, the leaf would stay reachable.
+                (_, true) => Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY),
+                (_, false) => padded(leaf.bounds),
+            }
+        } else {
+            boxes[i + 1].union(boxes[node.above_child() as usize])
+        };
+    }
+    boxes
+}
+
+/// `b` grown by [`BOX_PAD`] of its extent and its coordinates' magnitude on every side.
+fn padded(b: Aabb) -> Aabb {
+    if b.is_empty() {
+        return b;
+    }
+    let pad = (b.extent() + b.min.abs().max(b.max.abs())) * BOX_PAD;
+    let pad = pad.max(Vec3::splat(f32::MIN_POSITIVE));
+    Aabb::new(b.min - pad, b.max + pad)
+}
