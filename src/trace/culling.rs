@@ -71,10 +71,21 @@ pub enum Frustum {
     ///   0.25 of each other but that start apart (a tile's shadow rays, converging on the
     ///   light): the one interval of the whole-packet traversal would bound their segments
     ///   loosely;
-    /// - no beam for the rest (ambient-occlusion and diffuse rays, and packets of at most 16
-    ///   rays), whose beams cost more than they cull; the setting's other stages (ray-box
-    ///   culling) stay.
+    /// - ray by ray for the rest (ambient-occlusion and diffuse rays, and packets of at most 16
+    ///   rays), whose beams cost more than they cull: each ray is traced as
+    ///   [`Tracer::intersect`](crate::Tracer::intersect) traces it, with the setting's
+    ///   single-ray stages, through the tree's wide nodes on SIMD lanes (a vector of child
+    ///   boxes per step), which outrun the per-ray packet traversal on rays this far apart.
     Coherent,
+}
+
+/// How a packet's rays are traced ([`Culling::for_packet`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum PacketTrace {
+    /// Through the packet traversal, culled as this setting says.
+    Packet(Culling),
+    /// One by one, as single rays with the tracer's single-ray stages.
+    RayByRay,
 }
 
 /// Where ray-box culling (Nah et al.; [`Culling::with_raybox`]) runs.
@@ -326,29 +337,27 @@ impl Culling {
         self.is_enabled() && matches!(self.frustum, Frustum::Packet | Frustum::Coherent)
     }
 
-    /// The setting the rays `active` of `packet` trace with, in a scene whose largest extent is
-    /// `scale`: [`Frustum::Coherent`] resolved as it documents; any other setting as it is.
-    pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, scale: f32) -> Culling {
+    /// How the rays `active` of `packet` are traced, in a scene whose largest extent is
+    /// `scale`: [`Frustum::Coherent`] resolved as it documents; any other setting as a packet
+    /// with the setting as it is.
+    pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, scale: f32) -> PacketTrace {
         if self.frustum != Frustum::Coherent || !self.is_enabled() {
-            return self;
+            return PacketTrace::Packet(self);
         }
         let s = spread(packet, active, scale);
         if s.is_coherent() {
-            Culling {
+            PacketTrace::Packet(Culling {
                 frustum: Frustum::Packet,
                 min_triangles: 1,
                 min_rays: 1,
                 ..self
-            }
+            })
         } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS
             && s.direction <= MAX_BEAM_DIRECTION_SPREAD
         {
-            self.with_frustum(Frustum::Adaptive)
+            PacketTrace::Packet(self.with_frustum(Frustum::Adaptive))
         } else {
-            Culling {
-                planes: Planes::None,
-                ..self
-            }
+            PacketTrace::RayByRay
         }
     }
 
@@ -640,7 +649,11 @@ mod tests {
             let rays: Vec<Ray> = (0..n).map(|i| ray(i as f32 / n as f32)).collect();
             RayPacket::from_rays(&rays)
         };
-        let resolve = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), 1.0);
+        let trace = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), 1.0);
+        let resolve = |p: &RayPacket| match trace(p) {
+            PacketTrace::Packet(c) => c,
+            PacketTrace::RayByRay => panic!("{p:?} traced ray by ray"),
+        };
         // A camera's tile: one origin, directions within 0.02.
         let tile = packet(64, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
         assert_eq!(resolve(&tile).frustum, Frustum::Packet);
@@ -655,13 +668,17 @@ mod tests {
             (resolved.frustum, resolved.planes),
             (Frustum::Adaptive, Planes::Six)
         );
-        // Sixteen of them, and rays over a hemisphere: no beam, ray-box culling kept.
+        // Sixteen of them, and rays over a hemisphere: ray by ray.
         let hemisphere = |f: f32| Ray::new(Vec3::ZERO, Vec3::new(f - 0.5, 0.3, 1.0 - f));
         for p in [packet(16, &shadow), packet(64, &hemisphere)] {
-            let resolved = resolve(&p);
-            assert!(!resolved.is_enabled(), "{resolved:?}");
-            assert_eq!(resolved.raybox, RayBoxes::Auto);
+            assert_eq!(trace(&p), PacketTrace::RayByRay);
         }
+        // A setting that is not `Coherent` is traced as it is.
+        let fixed = Culling::FULL;
+        assert_eq!(
+            fixed.for_packet(&packet(64, &hemisphere), u64::MAX, 1.0),
+            PacketTrace::Packet(fixed)
+        );
     }
 
     /// Every base, with and without the aperture test, ray-box culling and subspace stages.

@@ -22,6 +22,7 @@ use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
 
+use culling::PacketTrace;
 pub use culling::{Culling, Frustum, Planes, RayBoxes};
 pub use packet::{PacketCounters, StageCycles};
 pub use single::is_traceable;
@@ -320,8 +321,22 @@ impl<'t> Tracer<'t> {
         hits: &mut HitPacket,
         counters: &mut PacketCounters,
     ) {
+        let culling = match self.packet_trace(packet, active) {
+            PacketTrace::Packet(culling) => culling,
+            PacketTrace::RayByRay => {
+                *hits = HitPacket::default();
+                for_each_ray(packet, active, counters, |i, ray| {
+                    let (_, hit, c) = self.single::<false>(ray);
+                    (hits.t[i], hits.u[i], hits.v[i]) = (hit.t, hit.u, hit.v);
+                    hits.triangle[i] = hit.triangle;
+                    hits.tests[i] = u32::try_from(c.tests).unwrap_or(u32::MAX);
+                    c
+                });
+                return;
+            }
+        };
         let q = PacketCall {
-            culling: self.packet_culling(packet, active),
+            culling,
             packet,
             active,
         };
@@ -341,9 +356,9 @@ impl<'t> Tracer<'t> {
         }
     }
 
-    /// The culling the rays `active` of `packet` trace with ([`Culling::for_packet`], relative
-    /// to the tree's largest extent).
-    fn packet_culling(&self, packet: &RayPacket, active: u64) -> Culling {
+    /// How the rays `active` of `packet` are traced ([`Culling::for_packet`], relative to the
+    /// tree's largest extent).
+    fn packet_trace(&self, packet: &RayPacket, active: u64) -> PacketTrace {
         let scale = self.tree.bounds().extent().max_element();
         self.culling.for_packet(packet, active, scale)
     }
@@ -400,8 +415,20 @@ impl<'t> Tracer<'t> {
         active: u64,
         counters: &mut PacketCounters,
     ) -> u64 {
+        let culling = match self.packet_trace(packet, active) {
+            PacketTrace::Packet(culling) => culling,
+            PacketTrace::RayByRay => {
+                let mut occluded = 0;
+                for_each_ray(packet, active, counters, |i, ray| {
+                    let (found, _, c) = self.single::<true>(ray);
+                    occluded |= u64::from(found) << i;
+                    c
+                });
+                return occluded;
+            }
+        };
         let q = PacketCall {
-            culling: self.packet_culling(packet, active),
+            culling,
             packet,
             active,
         };
@@ -465,6 +492,28 @@ pub(crate) fn single_ray<const ANY: bool>(
             cull,
             accept,
         }),
+    }
+}
+
+/// Calls `trace(i, ray)` on every ray `i` of `packet` set in `active`, in order, and adds the
+/// work each returns to `counters` as one packet of single rays.
+#[inline]
+fn for_each_ray(
+    packet: &RayPacket,
+    active: u64,
+    counters: &mut PacketCounters,
+    mut trace: impl FnMut(usize, &Ray) -> RayCounters,
+) {
+    counters.packets += 1;
+    let mut lanes = active & packet.full_mask();
+    while lanes != 0 {
+        let i = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        let c = trace(i, &packet.ray(i));
+        counters.leaf_visits += c.leaves;
+        counters.ray_leaf_visits += c.leaves;
+        counters.tests += c.tests;
+        counters.potential_tests += c.tests + c.culled;
     }
 }
 
