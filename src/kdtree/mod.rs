@@ -22,6 +22,7 @@ pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
 pub use subspace::{LeafMask, SubspaceMasks, SubspaceResolution};
+pub(crate) use wide::BinaryBoxes;
 pub use wide::{WideChild, WideNode, WideNodes, BOX_PAD, WIDE, WIDE_STACK};
 
 use crate::{Error, Result};

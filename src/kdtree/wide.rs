@@ -118,24 +118,33 @@ impl WideNodes {
         self.nodes.len() * size_of::<WideNode>()
     }
 
-    /// Replaces the nodes with those of the tree `nodes` (root first, depth first) whose leaves
-    /// are `leaves`.
+    /// Replaces the nodes with those of the kd-tree `nodes` (root first, depth first) whose
+    /// leaves are `leaves`: [`WideNodes::collapse`] of its subtrees' padded boxes, the leaves
+    /// of no triangle dropped.
+    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord]) {
+        self.collapse(&KdSubtrees {
+            nodes,
+            leaves,
+            boxes: subtree_boxes(nodes, leaves),
+        });
+    }
+
+    /// Replaces the nodes with those of the binary tree `tree`, at most 64 levels deep.
     ///
     /// Each wide node takes a subtree's root and opens, breadth first, the shallowest inner
     /// node among its children until it has [`WIDE`] of them or only leaves, dropping subtrees
-    /// that hold no triangle. Breadth first, every inner child lies at least three levels below
+    /// whose box is empty. Breadth first, every inner child lies at least three levels below
     /// the node's own root (two levels hold at most four nodes, and opening each of them adds
     /// at most one child), so that a path meets at most ⌈64 / 3⌉ wide nodes in a tree at most
     /// 64 deep: what [`WIDE_STACK`] holds.
-    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord]) {
+    pub(crate) fn collapse(&mut self, tree: &impl BinaryBoxes) {
         self.nodes.clear();
-        let boxes = subtree_boxes(nodes, leaves);
         self.nodes.push(WideNode::NONE);
         let mut work = vec![(0u32, 0usize)];
         while let Some((root, at)) = work.pop() {
             let mut slots = [(0u32, 0u32); WIDE];
             let mut len = 0;
-            if !boxes[root as usize].is_empty() {
+            if !tree.bounds(root).is_empty() {
                 slots[0] = (root, 0);
                 len = 1;
             }
@@ -143,15 +152,15 @@ impl WideNodes {
                 let shallowest = slots[..len]
                     .iter()
                     .enumerate()
-                    .filter(|(_, &(n, _))| !nodes[n as usize].is_leaf())
+                    .filter(|(_, &(n, _))| tree.children(n).is_some())
                     .min_by_key(|(_, &(_, depth))| depth)
                     .map(|(i, _)| i);
                 let Some(i) = shallowest else { break };
                 let (n, depth) = slots[i];
                 slots[i] = slots[len - 1];
                 len -= 1;
-                for child in [n + 1, nodes[n as usize].above_child()] {
-                    if !boxes[child as usize].is_empty() {
+                for child in tree.children(n).into_iter().flatten() {
+                    if !tree.bounds(child).is_empty() {
                         slots[len] = (child, depth + 1);
                         len += 1;
                     }
@@ -159,13 +168,13 @@ impl WideNodes {
             }
             let mut node = WideNode::NONE;
             for (i, &(n, _)) in slots[..len].iter().enumerate() {
-                let b = boxes[n as usize];
+                let b = tree.bounds(n);
                 for axis in 0..3 {
                     node.planes[axis][i] = b.min[axis];
                     node.planes[3 + axis][i] = b.max[axis];
                 }
-                node.children[i] = if nodes[n as usize].is_leaf() {
-                    WideChild::leaf(nodes[n as usize].leaf_record())
+                node.children[i] = if tree.children(n).is_none() {
+                    WideChild::leaf(tree.leaf(n))
                 } else {
                     let index = self.nodes.len();
                     self.nodes.push(WideNode::NONE);
@@ -175,6 +184,41 @@ impl WideNodes {
             }
             self.nodes[at] = node;
         }
+    }
+}
+
+/// A binary tree of boxes, as [`WideNodes::collapse`] reads it: node 0 is the root.
+pub(crate) trait BinaryBoxes {
+    /// The two children of node `n`, or `None` when `n` is a leaf.
+    fn children(&self, n: u32) -> Option<[u32; 2]>;
+    /// The box of everything under node `n`, padded as the rays that test it need; empty when
+    /// nothing under it is to be traced.
+    fn bounds(&self, n: u32) -> Aabb;
+    /// What the leaf `n` is to a traversal: the index of its [`WideChild::leaf`], below 2³¹.
+    fn leaf(&self, n: u32) -> u32;
+}
+
+/// A kd-tree's nodes with the padded box of each subtree's leaves.
+struct KdSubtrees<'a> {
+    nodes: &'a [Node],
+    leaves: &'a [LeafRecord],
+    boxes: Vec<Aabb>,
+}
+
+impl BinaryBoxes for KdSubtrees<'_> {
+    fn children(&self, n: u32) -> Option<[u32; 2]> {
+        let node = self.nodes[n as usize];
+        (!node.is_leaf()).then(|| [n + 1, node.above_child()])
+    }
+
+    fn bounds(&self, n: u32) -> Aabb {
+        self.boxes[n as usize]
+    }
+
+    fn leaf(&self, n: u32) -> u32 {
+        let record = self.nodes[n as usize].leaf_record();
+        debug_assert!(self.leaves[record as usize].count > 0);
+        record
     }
 }
 

@@ -13,7 +13,7 @@ mod single;
 mod stream;
 mod subspace;
 pub mod synthetic;
-mod wide;
+pub(crate) mod wide;
 
 use std::marker::PhantomData;
 
@@ -465,9 +465,9 @@ impl<'t> Tracer<'t> {
 }
 
 /// One ray through `tree` with `intersector` on `dispatch`'s ISA, `cull` dropping what it can,
-/// counting only hits `accept` accepts: with `ANY`, whether there is one in `[tmin, tmax]` (the hit then [`Hit::NONE`]);
-/// otherwise the closest, bit for bit the same on every ISA. The one single-ray entry point of
-/// [`Tracer`], [`filtered`] and [`crate::scene::world::Scene`].
+/// counting only hits `accept` accepts: with `ANY`, whether there is one in `[tmin, tmax]` (the
+/// hit then [`Hit::NONE`]); otherwise the closest, bit for bit the same on every ISA. The one
+/// single-ray entry point of [`Tracer`], [`filtered`] and [`crate::scene::world::Scene`].
 #[inline]
 pub(crate) fn single_ray<const ANY: bool>(
     dispatch: Dispatch,
@@ -477,21 +477,70 @@ pub(crate) fn single_ray<const ANY: bool>(
     cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, Hit, RayCounters) {
+    dispatch.run(SingleRayTask::<_, _, ANY> {
+        tree,
+        intersector,
+        ray,
+        cull,
+        accept,
+    })
+}
+
+/// [`single_ray`] on the lanes `l`, for a caller already running on them (a scene's walk over
+/// its instances, one ISA resolved for the whole ray).
+#[inline(always)]
+pub(crate) fn single_ray_on<L: Lanes, const ANY: bool>(
+    l: L,
+    tree: &KdTree,
+    intersector: Intersector,
+    ray: &Ray,
+    cull: impl TriangleCull,
+    accept: impl FnMut(&Hit) -> bool,
+) -> (bool, Hit, RayCounters) {
     match intersector {
-        Intersector::KenslerShirley => dispatch.run(single::SingleRay::<_, _, _, ANY> {
+        Intersector::KenslerShirley => single::SingleRay::<_, _, _, ANY> {
             tree,
             ray,
             test: KsTest,
             cull,
             accept,
-        }),
-        Intersector::Watertight => dispatch.run(single::SingleRay::<_, _, _, ANY> {
+        }
+        .run(l),
+        Intersector::Watertight => single::SingleRay::<_, _, _, ANY> {
             tree,
             ray,
             test: WatertightTest(WatertightRay::new(ray)),
             cull,
             accept,
-        }),
+        }
+        .run(l),
+    }
+}
+
+/// [`single_ray`] as a task generic over the lanes.
+struct SingleRayTask<'a, C, A, const ANY: bool> {
+    tree: &'a KdTree,
+    intersector: Intersector,
+    ray: &'a Ray,
+    cull: C,
+    accept: A,
+}
+
+impl<C: TriangleCull, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask
+    for SingleRayTask<'_, C, A, ANY>
+{
+    type Output = (bool, Hit, RayCounters);
+
+    #[inline(always)]
+    fn run<L: Lanes>(self, l: L) -> Self::Output {
+        single_ray_on::<L, ANY>(
+            l,
+            self.tree,
+            self.intersector,
+            self.ray,
+            self.cull,
+            self.accept,
+        )
     }
 }
 

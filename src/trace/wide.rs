@@ -18,14 +18,55 @@ use crate::kdtree::{KdTree, WideChild, WideNode, WIDE, WIDE_STACK};
 
 /// Walks the leaves of `tree` that `ray` enters, by its wide nodes, until `visitor` has its
 /// answer; `L` (at most [`WIDE`] lanes) tests a vector of children per step.
-///
-/// A leaf is entered over its box's interval, widened by the slack of the binary traversal
-/// ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`, the rounding of
-/// `(plane − o)·inv`), and skipped once the closest hit so far lies strictly before it.
 #[inline(always)]
 pub(crate) fn traverse<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray, visitor: &mut V) {
-    debug_assert!(L::WIDTH <= WIDE);
     if !is_traceable(ray) {
+        return;
+    }
+    walk(
+        l,
+        tree.wide_nodes().nodes(),
+        ray,
+        &mut KdLeaves { tree, visitor },
+    );
+}
+
+/// What a walk of wide nodes ([`walk`]) does in each leaf it enters.
+///
+/// A trait rather than a closure so that `#[inline(always)]` keeps the leaf's work inside the
+/// ISA's entry point: a closure holding a whole traversal is left out of line, compiled for
+/// the baseline ISA.
+pub(crate) trait WideLeaves {
+    /// Visits the leaf `leaf` (the index of its [`WideChild::leaf`]), entered over
+    /// `[t_enter, t_exit]`. Returns the `t` of the closest hit so far (`+inf` without one), or
+    /// `None` to stop the walk.
+    fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32>;
+}
+
+/// A kd-tree's leaves, by record, tested by `visitor`.
+struct KdLeaves<'a, V> {
+    tree: &'a KdTree,
+    visitor: &'a mut V,
+}
+
+impl<V: LeafVisitor> WideLeaves for KdLeaves<'_, V> {
+    #[inline(always)]
+    fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32> {
+        visit_leaf(self.tree, leaf, t_enter, t_exit, self.visitor)
+    }
+}
+
+/// Has `leaves` visit the leaves of the wide nodes `nodes` (root first) whose boxes the
+/// traceable `ray` enters, each over its box's interval, nearest entry first, until it stops.
+///
+/// A box is entered over its slab interval widened by the slack of the binary traversal
+/// ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`, the rounding of
+/// `(plane − o)·inv`), and skipped once the closest hit so far lies strictly before it. No
+/// nodes: no leaf.
+#[inline(always)]
+pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut impl WideLeaves) {
+    debug_assert!(L::WIDTH <= WIDE);
+    if nodes.is_empty() {
         return;
     }
     let inv = ray.direction.recip();
@@ -47,7 +88,6 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray,
         }
     }
     let (err, eps, tmin) = (l.splat(err), l.splat(INTERVAL_EPS), l.splat(ray.tmin));
-    let nodes = tree.wide_nodes().nodes();
     let mut stack = [(WideChild::NONE, 0f32, 0f32); WIDE_STACK];
     let mut top = 0;
     let mut best_t = f32::INFINITY;
@@ -82,7 +122,7 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray,
                 continue;
             }
         } else {
-            match visit_leaf(tree, child.index(), t_enter, t_exit, visitor) {
+            match leaves.visit(child.index(), t_enter, t_exit) {
                 Some(t) => best_t = t,
                 None => return,
             }

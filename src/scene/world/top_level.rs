@@ -14,6 +14,8 @@
 use glam::Vec3A;
 use kdbeam_kernels::Aabb;
 
+use crate::kdtree::{BinaryBoxes, WideNodes};
+
 /// At most this many instances per leaf.
 const LEAF_SIZE: usize = 2;
 /// Bins of the SAH sweep.
@@ -79,12 +81,15 @@ struct Pending {
     centroids: Box3,
 }
 
-/// The BVH: nodes, root first (absent when there are no items), and the item order its leaves
-/// index.
+/// The BVH: nodes, root first (absent when there are no items), the item order its leaves
+/// index, and the same tree in wide nodes, whose leaves are the BVH's leaf nodes.
 #[derive(Clone, Debug, Default)]
 pub(super) struct TopLevel {
     pub nodes: Vec<Node>,
     pub items: Vec<u32>,
+    /// For single rays: a vector of child boxes per step ([`crate::trace::wide::walk`]), as
+    /// the instances' kd-trees are traced; packets walk `nodes`, a vector of rays per box.
+    pub wide: WideNodes,
     boxes: Vec<Box3>,
     centroids: Vec<Vec3A>,
     /// The bin of each item at the current split.
@@ -118,6 +123,7 @@ impl TopLevel {
         self.items
             .extend((0..boxes.len() as u32).filter(|&i| !boxes[i as usize].is_empty()));
         if self.items.is_empty() {
+            self.wide = WideNodes::default();
             return;
         }
         let (mut all, mut centroids) = (Box3::EMPTY, Box3::EMPTY);
@@ -161,6 +167,9 @@ impl TopLevel {
             self.nodes[p.node].first = children as u32;
             self.nodes[p.node].count = 0;
         }
+        let mut wide = std::mem::take(&mut self.wide);
+        wide.collapse(self);
+        self.wide = wide;
     }
 
     /// Partitions `items[range]` at the cheapest binned SAH plane of the widest axis of `cb`,
@@ -244,9 +253,26 @@ impl TopLevel {
     }
 }
 
+/// The BVH as [`WideNodes::collapse`] reads it: a wide leaf is a leaf node, by its index.
+impl BinaryBoxes for TopLevel {
+    fn children(&self, n: u32) -> Option<[u32; 2]> {
+        let node = &self.nodes[n as usize];
+        (node.count == 0).then_some([node.first, node.first + 1])
+    }
+
+    fn bounds(&self, n: u32) -> Aabb {
+        self.nodes[n as usize].bounds
+    }
+
+    fn leaf(&self, n: u32) -> u32 {
+        n
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kdtree::WideChild;
     use crate::scene::rng::Rng;
     use glam::Vec3;
 
@@ -271,6 +297,46 @@ mod tests {
         }
         for (i, b) in boxes.iter().enumerate() {
             assert_eq!(seen[i], usize::from(!b.is_empty()), "item {i}");
+        }
+        check_wide(t);
+    }
+
+    /// Every leaf node of the BVH a leaf of the wide nodes exactly once, under the box of its
+    /// node, and every wide node reached once.
+    fn check_wide(t: &TopLevel) {
+        let wide = t.wide.nodes();
+        if t.nodes.is_empty() {
+            assert!(wide.is_empty());
+            return;
+        }
+        let mut leaves = vec![0; t.nodes.len()];
+        let mut reached = vec![0; wide.len()];
+        let mut todo = vec![0usize];
+        reached[0] = 1;
+        while let Some(w) = todo.pop() {
+            let node = &wide[w];
+            for (k, &child) in node.children.iter().enumerate() {
+                if child == WideChild::NONE {
+                    continue;
+                }
+                let b = Aabb::new(
+                    Vec3::new(node.planes[0][k], node.planes[1][k], node.planes[2][k]),
+                    Vec3::new(node.planes[3][k], node.planes[4][k], node.planes[5][k]),
+                );
+                if child.is_node() {
+                    reached[child.index() as usize] += 1;
+                    todo.push(child.index() as usize);
+                } else {
+                    let n = &t.nodes[child.index() as usize];
+                    assert!(n.count > 0, "wide leaf {} is an inner node", child.index());
+                    assert_eq!(b, n.bounds);
+                    leaves[child.index() as usize] += 1;
+                }
+            }
+        }
+        assert!(reached.iter().all(|&r| r == 1), "{reached:?}");
+        for (i, n) in t.nodes.iter().enumerate() {
+            assert_eq!(leaves[i], usize::from(n.count > 0), "node {i}");
         }
     }
 

@@ -1,14 +1,15 @@
-//! Queries of a committed scene: the top-level BVH walked front to back, each instance's
-//! kd-tree traced with the ray carried to its space.
+//! Queries of a committed scene: the top-level BVH walked front to back by its wide nodes, each
+//! instance's kd-tree traced with the ray carried to its space, all on the ISA resolved once
+//! for the ray.
 
-use kdbeam_kernels::{slab, Hit, Ray};
+use kdbeam_kernels::{slab, Hit, LaneTask, Lanes, Ray, Vec3};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
 use super::commit::{Committed, Entry};
-use super::top_level::MAX_DEPTH;
 use super::{GeometryId, InstanceId, Query, Scene, SceneHit};
-use crate::trace::{is_traceable, single_ray, NoCull};
+use crate::trace::wide::{self, WideLeaves};
+use crate::trace::{is_traceable, single_ray_on, NoCull};
 use crate::{Error, Result};
 
 /// Rays per task of a stream.
@@ -152,115 +153,121 @@ pub(super) fn scene_hit(entry: &Entry, h: &Hit) -> SceneHit {
     }
 }
 
-/// Visits the entries whose boxes `ray` enters over `[ray.tmin, bound]`, nearest box first,
-/// where `visit` returns the new `bound` (the closest hit so far) or `None` to stop.
-#[inline(always)]
-fn walk(c: &Committed, ray: &Ray, mask: u32, mut visit: impl FnMut(&Entry, f32) -> Option<f32>) {
-    let Some(root) = c.top.nodes.first() else {
-        return;
-    };
-    let inv = ray.direction.recip();
-    let hit_box = |b, bound| slab::ray_box(ray.origin, inv, ray.tmin, bound, b);
-    let mut bound = ray.tmax;
-    let Some((t0, _)) = hit_box(&root.bounds, bound) else {
-        return;
-    };
-    let mut stack = [(0u32, 0f32); MAX_DEPTH + 2];
-    stack[0] = (0, t0);
-    let mut top = 1;
-    while top > 0 {
-        top -= 1;
-        let (n, t_enter) = stack[top];
-        if t_enter > bound {
-            continue;
-        }
-        let node = &c.top.nodes[n as usize];
-        if node.count > 0 {
-            let items = &c.top.items[node.first as usize..(node.first + node.count) as usize];
-            for &i in items {
-                let e = &c.entries[i as usize];
-                if e.mask & mask == 0 {
-                    continue;
-                }
-                match visit(e, bound) {
-                    Some(b) => bound = b,
-                    None => return,
-                }
-            }
-            continue;
-        }
-        let (l, r) = (node.first, node.first + 1);
-        let tl = hit_box(&c.top.nodes[l as usize].bounds, bound).map(|h| h.0);
-        let tr = hit_box(&c.top.nodes[r as usize].bounds, bound).map(|h| h.0);
-        // Push the farther child first so the nearer one is visited first.
-        let mut push = |child: u32, t: Option<f32>| {
-            if let Some(t) = t {
-                stack[top] = (child, t);
-                top += 1;
-            }
-        };
-        match (tl, tr) {
-            (Some(a), Some(b)) if b < a => {
-                push(l, tl);
-                push(r, tr);
-            }
-            _ => {
-                push(r, tr);
-                push(l, tl);
-            }
-        }
-    }
-}
-
 impl Scene {
     /// The closest accepted hit over the entries `ray` meets, each instance's tree traced on
-    /// the scene's ISA ([`single_ray`]: a vector of a leaf's triangles per test), the filter,
+    /// the scene's ISA ([`single_ray_on`]: a vector of a leaf's triangles per test), the filter,
     /// if any, asked about each candidate in its scene-level form.
     fn closest(&self, c: &Committed, ray: &Ray, query: &Query<'_>) -> SceneHit {
-        let mut best = SceneHit::NONE;
-        walk(c, ray, query.mask, |e, bound| {
-            let tree = &c.blas[e.blas as usize].tree;
-            let r = object_ray(e, ray, bound);
-            let (_, h, _) = match query.filter {
-                None => {
-                    single_ray::<false>(self.dispatch, tree, self.intersector, &r, NoCull, |_| true)
-                }
-                Some(f) => {
-                    single_ray::<false>(self.dispatch, tree, self.intersector, &r, NoCull, |h| {
-                        f(&scene_hit(e, h))
-                    })
-                }
-            };
-            if h.is_hit() {
-                let candidate = scene_hit(e, &h);
-                if best.is_beaten_by(&candidate) {
-                    best = candidate;
-                }
-            }
-            Some(best.t.min(ray.tmax))
-        });
-        best
+        self.dispatch
+            .run(SceneRay::<false>::new(self, c, ray, query))
+            .best
     }
 
     /// Is there an accepted hit on any entry `ray` meets? As [`Scene::closest`], stopping at
     /// the first.
     fn any(&self, c: &Committed, ray: &Ray, query: &Query<'_>) -> bool {
-        let mut found = false;
-        walk(c, ray, query.mask, |e, bound| {
-            let tree = &c.blas[e.blas as usize].tree;
-            let r = object_ray(e, ray, bound);
-            (found, ..) = match query.filter {
-                None => {
-                    single_ray::<true>(self.dispatch, tree, self.intersector, &r, NoCull, |_| true)
-                }
-                Some(f) => {
-                    single_ray::<true>(self.dispatch, tree, self.intersector, &r, NoCull, |h| {
-                        f(&scene_hit(e, h))
-                    })
-                }
-            };
-            (!found).then_some(bound)
-        });
-        found
+        self.dispatch
+            .run(SceneRay::<true>::new(self, c, ray, query))
+            .found
+    }
+}
+
+/// One traceable ray through a committed scene, as a task generic over the lanes: with `ANY`,
+/// whether there is an accepted hit; otherwise the closest accepted hit.
+///
+/// The top level's wide nodes are walked a vector of child boxes per step
+/// ([`wide::walk`]); in a leaf of several entries each entry's own box is tested; each entry
+/// the ray meets over `[tmin, bound]` (`bound` the closest hit so far) has its tree traced
+/// with the ray carried to its space.
+struct SceneRay<'a, const ANY: bool> {
+    scene: &'a Scene,
+    c: &'a Committed,
+    ray: &'a Ray,
+    inv: Vec3,
+    query: &'a Query<'a>,
+    best: SceneHit,
+    found: bool,
+}
+
+impl<'a, const ANY: bool> SceneRay<'a, ANY> {
+    fn new(scene: &'a Scene, c: &'a Committed, ray: &'a Ray, query: &'a Query<'a>) -> Self {
+        SceneRay {
+            scene,
+            c,
+            ray,
+            inv: ray.direction.recip(),
+            query,
+            best: SceneHit::NONE,
+            found: false,
+        }
+    }
+
+    /// Traces `e`'s tree over `[tmin, bound]`; the new bound, or `None` once `ANY` found a hit.
+    #[inline(always)]
+    fn entry<L: Lanes>(&mut self, l: L, e: &Entry, bound: f32) -> Option<f32> {
+        let tree = &self.c.blas[e.blas as usize].tree;
+        let r = object_ray(e, self.ray, bound);
+        let intersector = self.scene.intersector;
+        let (hit, h, _) = match self.query.filter {
+            None => single_ray_on::<L, ANY>(l, tree, intersector, &r, NoCull, |_| true),
+            Some(f) => {
+                single_ray_on::<L, ANY>(l, tree, intersector, &r, NoCull, |h| f(&scene_hit(e, h)))
+            }
+        };
+        if ANY {
+            self.found = hit;
+            return (!hit).then_some(bound);
+        }
+        if h.is_hit() {
+            let candidate = scene_hit(e, &h);
+            if self.best.is_beaten_by(&candidate) {
+                self.best = candidate;
+            }
+        }
+        Some(self.best.t.min(self.ray.tmax))
+    }
+}
+
+/// The walk's leaves on the lanes `L` of the instances' trees.
+struct OnLanes<'r, 'a, L, const ANY: bool> {
+    l: L,
+    ray: &'r mut SceneRay<'a, ANY>,
+}
+
+impl<L: Lanes, const ANY: bool> WideLeaves for OnLanes<'_, '_, L, ANY> {
+    #[inline(always)]
+    fn visit(&mut self, leaf: u32, _: f32, _: f32) -> Option<f32> {
+        let s = &mut *self.ray;
+        let (c, ray) = (s.c, s.ray);
+        let mut bound = if ANY {
+            ray.tmax
+        } else {
+            s.best.t.min(ray.tmax)
+        };
+        let node = &c.top.nodes[leaf as usize];
+        for &i in &c.top.items[node.first as usize..(node.first + node.count) as usize] {
+            let e = &c.entries[i as usize];
+            if e.mask & s.query.mask == 0
+                || node.count > 1
+                    && slab::ray_box(ray.origin, s.inv, ray.tmin, bound, &c.boxes[i as usize])
+                        .is_none()
+            {
+                continue;
+            }
+            bound = s.entry(self.l, e, bound)?;
+        }
+        Some(bound)
+    }
+}
+
+impl<const ANY: bool> LaneTask for SceneRay<'_, ANY> {
+    type Output = Self;
+
+    #[inline(always)]
+    fn run<L: Lanes>(mut self, l: L) -> Self {
+        let nodes = self.c.top.wide.nodes();
+        let ray = self.ray;
+        wide::walk(l.up_to_8(), nodes, ray, &mut OnLanes { l, ray: &mut self });
+        self
     }
 }
