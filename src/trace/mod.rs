@@ -27,7 +27,7 @@ pub use culling::{Culling, Frustum, Planes, RayBoxes};
 pub use packet::{PacketCounters, StageCycles};
 pub use single::is_traceable;
 pub use single::RayCounters;
-use single::{KsTest, WatertightTest};
+use single::{KsTest, RayTest, WatertightTest};
 pub(crate) use single::{NoCull, TriangleCull};
 pub use subspace::Subspace;
 
@@ -325,12 +325,10 @@ impl<'t> Tracer<'t> {
             PacketTrace::Packet(culling) => culling,
             PacketTrace::RayByRay => {
                 *hits = HitPacket::default();
-                for_each_ray(packet, active, counters, |i, ray| {
-                    let (_, hit, c) = self.single::<false>(ray);
+                self.ray_by_ray::<false>(packet, active, counters, |i, (_, hit, c)| {
                     (hits.t[i], hits.u[i], hits.v[i]) = (hit.t, hit.u, hit.v);
                     hits.triangle[i] = hit.triangle;
                     hits.tests[i] = u32::try_from(c.tests).unwrap_or(u32::MAX);
-                    c
                 });
                 return;
             }
@@ -419,10 +417,8 @@ impl<'t> Tracer<'t> {
             PacketTrace::Packet(culling) => culling,
             PacketTrace::RayByRay => {
                 let mut occluded = 0;
-                for_each_ray(packet, active, counters, |i, ray| {
-                    let (found, _, c) = self.single::<true>(ray);
+                self.ray_by_ray::<true>(packet, active, counters, |i, (found, _, _)| {
                     occluded |= u64::from(found) << i;
-                    c
                 });
                 return occluded;
             }
@@ -544,25 +540,101 @@ impl<C: TriangleCull, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask
     }
 }
 
-/// Calls `trace(i, ray)` on every ray `i` of `packet` set in `active`, in order, and adds the
-/// work each returns to `counters` as one packet of single rays.
-#[inline]
-fn for_each_ray(
-    packet: &RayPacket,
+impl Tracer<'_> {
+    /// Traces every ray `i` of `packet` set in `active` as a single ray ([`Tracer::single`]),
+    /// gives `record(i, result)`, and adds the work to `counters` as one packet of single
+    /// rays. Unculled (the SIMD default), the rays go two at a time in one task
+    /// ([`single::pair`]), their walks interleaved.
+    #[inline]
+    fn ray_by_ray<const ANY: bool>(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+        counters: &mut PacketCounters,
+        mut record: impl FnMut(usize, (bool, Hit, RayCounters)),
+    ) {
+        counters.packets += 1;
+        let mut add = |i: usize, result: (bool, Hit, RayCounters)| {
+            let c = result.2;
+            counters.leaf_visits += c.leaves;
+            counters.ray_leaf_visits += c.leaves;
+            counters.tests += c.tests;
+            counters.potential_tests += c.tests + c.culled;
+            record(i, result);
+        };
+        let active = active & packet.full_mask();
+        let culled = self.culling.subspace.is_some()
+            || self.culling.runs_raybox_on_single_rays(self.dispatch.isa());
+        if culled {
+            let mut lanes = active;
+            while lanes != 0 {
+                let i = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                add(i, self.single::<ANY>(&packet.ray(i)));
+            }
+            return;
+        }
+        let tree = self.tree;
+        match self.intersector {
+            Intersector::KenslerShirley => self.dispatch.run(RayPairs::<KsTest, _, ANY> {
+                tree,
+                packet,
+                active,
+                record: add,
+                test: PhantomData,
+            }),
+            Intersector::Watertight => self.dispatch.run(RayPairs::<WatertightTest, _, ANY> {
+                tree,
+                packet,
+                active,
+                record: add,
+                test: PhantomData,
+            }),
+        }
+    }
+}
+
+/// The rays `active` of `packet` through `tree`, unculled, two at a time ([`single::pair`]),
+/// as a task generic over the lanes; `record(i, result)` gets each ray's result.
+struct RayPairs<'a, T, R, const ANY: bool> {
+    tree: &'a KdTree,
+    packet: &'a RayPacket,
     active: u64,
-    counters: &mut PacketCounters,
-    mut trace: impl FnMut(usize, &Ray) -> RayCounters,
-) {
-    counters.packets += 1;
-    let mut lanes = active & packet.full_mask();
-    while lanes != 0 {
-        let i = lanes.trailing_zeros() as usize;
-        lanes &= lanes - 1;
-        let c = trace(i, &packet.ray(i));
-        counters.leaf_visits += c.leaves;
-        counters.ray_leaf_visits += c.leaves;
-        counters.tests += c.tests;
-        counters.potential_tests += c.tests + c.culled;
+    record: R,
+    test: PhantomData<T>,
+}
+
+impl<T: RayTest, R: FnMut(usize, (bool, Hit, RayCounters)), const ANY: bool> LaneTask
+    for RayPairs<'_, T, R, ANY>
+{
+    type Output = ();
+
+    #[inline(always)]
+    fn run<L: Lanes>(mut self, l: L) {
+        let mut lanes = self.active;
+        while lanes != 0 {
+            let i = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let first = self.packet.ray(i);
+            if lanes == 0 {
+                let result = single::SingleRay::<_, _, _, ANY> {
+                    tree: self.tree,
+                    ray: &first,
+                    test: T::for_ray(&first),
+                    cull: NoCull,
+                    accept: |_: &Hit| true,
+                }
+                .run(l);
+                (self.record)(i, result);
+                return;
+            }
+            let j = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let second = self.packet.ray(j);
+            let [a, b] = single::pair::<L, T, ANY>(l, self.tree, [&first, &second]);
+            (self.record)(i, a);
+            (self.record)(j, b);
+        }
     }
 }
 

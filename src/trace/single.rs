@@ -404,74 +404,122 @@ pub(crate) fn closest_hit<L: Lanes>(
     cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (Hit, RayCounters) {
-    struct Closest<'a, L, T, C, A> {
-        l: L,
-        ray: &'a Ray,
-        test: &'a T,
-        cull: C,
-        accept: A,
-        hit: Hit,
-        counters: RayCounters,
+    let mut v = Closest::new(l, ray, test, cull, accept);
+    traverse_lanes(l, tree, ray, &mut v);
+    (v.hit, v.leaves.counters)
+}
+
+/// What the leaf visitors of [`closest_hit`] and [`any_hit`] share: the ray, its test, its
+/// culling stage, the filter and the work counted.
+struct RayLeaves<'a, L, T, C, A> {
+    l: L,
+    ray: &'a Ray,
+    test: &'a T,
+    cull: C,
+    accept: A,
+    counters: RayCounters,
+}
+
+impl<'a, L: Lanes, T: BlockTest, C: TriangleCull, A> RayLeaves<'a, L, T, C, A> {
+    #[inline(always)]
+    fn new(l: L, ray: &'a Ray, test: &'a T, cull: C, accept: A) -> Self {
+        RayLeaves {
+            l,
+            ray,
+            test,
+            cull,
+            accept,
+            counters: RayCounters::default(),
+        }
     }
-    impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
-        for Closest<'_, L, T, C, A>
-    {
-        #[inline(always)]
-        fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
-            self.counters.leaves += 1;
-            if !self.cull.enter(self.ray, &leaf) {
-                self.counters.leaves_culled += 1;
-                self.counters.culled += leaf.triangles.len() as u64;
-                return Some(self.hit.t);
-            }
-            let mut vectors = lane_vectors::<L>(&leaf);
-            // `next` directly: a `for` loop may leave the forwarding `next` out of line.
-            #[allow(clippy::while_let_on_iterator)]
-            while let Some((block, index, first, valid)) = vectors.next() {
-                let tmax = if self.hit.is_hit() {
-                    self.hit.t
-                } else {
-                    self.ray.tmax
-                };
-                let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
-                self.counters.tests += set_lanes::<L>(kept);
-                self.counters.culled += set_lanes::<L>(valid & !kept);
-                if kept == 0 {
-                    continue;
-                }
-                let h = self.test.test(self.l, self.ray, (block, first, kept), tmax);
-                let mut lanes = h.mask.bits();
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let (t, id) = (h.t.extract(lane), block.ids[first + lane]);
-                    if self.hit.is_beaten_by(t, id) {
-                        let candidate = Hit {
-                            t,
-                            u: h.u.extract(lane),
-                            v: h.v.extract(lane),
-                            triangle: id,
-                        };
-                        if (self.accept)(&candidate) {
-                            self.hit = candidate;
-                        }
+
+    /// Counts the leaf entered; `false` when the culling stage skips it.
+    #[inline(always)]
+    fn enter(&mut self, leaf: &LeafEntry<'_>) -> bool {
+        self.counters.leaves += 1;
+        if self.cull.enter(self.ray, leaf) {
+            return true;
+        }
+        self.counters.leaves_culled += 1;
+        self.counters.culled += leaf.triangles.len() as u64;
+        false
+    }
+
+    /// The hits of the lanes `valid` of triangles `first..` of the block (`index` in the
+    /// tree's blocks) in `[tmin, tmax]`, of those the culling stage keeps, the tests counted;
+    /// `None` when it keeps none.
+    #[inline(always)]
+    fn test(
+        &mut self,
+        (block, index, first, valid): (&TriangleBlock, usize, usize, u32),
+        tmax: f32,
+    ) -> Option<LaneHits<L>> {
+        let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
+        self.counters.tests += set_lanes::<L>(kept);
+        self.counters.culled += set_lanes::<L>(valid & !kept);
+        if kept == 0 {
+            return None;
+        }
+        Some(self.test.test(self.l, self.ray, (block, first, kept), tmax))
+    }
+}
+
+/// The leaf visitor of [`closest_hit`].
+struct Closest<'a, L, T, C, A> {
+    leaves: RayLeaves<'a, L, T, C, A>,
+    hit: Hit,
+}
+
+impl<'a, L: Lanes, T: BlockTest, C: TriangleCull, A> Closest<'a, L, T, C, A> {
+    #[inline(always)]
+    fn new(l: L, ray: &'a Ray, test: &'a T, cull: C, accept: A) -> Self {
+        Closest {
+            leaves: RayLeaves::new(l, ray, test, cull, accept),
+            hit: Hit::NONE,
+        }
+    }
+}
+
+impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
+    for Closest<'_, L, T, C, A>
+{
+    #[inline(always)]
+    fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
+        if !self.leaves.enter(&leaf) {
+            return Some(self.hit.t);
+        }
+        let mut vectors = lane_vectors::<L>(&leaf);
+        // `next` directly: a `for` loop may leave the forwarding `next` out of line.
+        #[allow(clippy::while_let_on_iterator)]
+        while let Some((block, index, first, valid)) = vectors.next() {
+            let tmax = if self.hit.is_hit() {
+                self.hit.t
+            } else {
+                self.leaves.ray.tmax
+            };
+            let Some(h) = self.leaves.test((block, index, first, valid), tmax) else {
+                continue;
+            };
+            let mut lanes = h.mask.bits();
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let (t, id) = (h.t.extract(lane), block.ids[first + lane]);
+                if self.hit.is_beaten_by(t, id) {
+                    let candidate = Hit {
+                        t,
+                        u: h.u.extract(lane),
+                        v: h.v.extract(lane),
+                        triangle: id,
+                    };
+                    if (self.leaves.accept)(&candidate) {
+                        self.hit = candidate;
                     }
                 }
             }
-            Some(self.hit.t)
         }
+        Some(self.hit.t)
     }
-    let mut v = Closest {
-        l,
-        ray,
-        test,
-        cull,
-        accept,
-        hit: Hit::NONE,
-        counters: RayCounters::default(),
-    };
-    traverse_lanes(l, tree, ray, &mut v);
-    (v.hit, v.counters)
 }
 
 /// Whether anything that `accept` accepts is hit in `[ray.tmin, ray.tmax]`, stopping at the
@@ -487,67 +535,129 @@ pub(crate) fn any_hit<L: Lanes>(
     cull: impl TriangleCull,
     accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, RayCounters) {
-    struct Any<'a, L, T, C, A> {
-        l: L,
-        ray: &'a Ray,
-        test: &'a T,
-        cull: C,
-        accept: A,
-        found: bool,
-        counters: RayCounters,
-    }
-    impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
-        for Any<'_, L, T, C, A>
-    {
-        #[inline(always)]
-        fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
-            self.counters.leaves += 1;
-            if !self.cull.enter(self.ray, &leaf) {
-                self.counters.leaves_culled += 1;
-                self.counters.culled += leaf.triangles.len() as u64;
-                return Some(f32::INFINITY);
-            }
-            let mut vectors = lane_vectors::<L>(&leaf);
-            #[allow(clippy::while_let_on_iterator)]
-            while let Some((block, index, first, valid)) = vectors.next() {
-                let tmax = self.ray.tmax;
-                let kept = self.cull.lanes(self.l, self.ray, index, first, valid, tmax);
-                self.counters.tests += set_lanes::<L>(kept);
-                self.counters.culled += set_lanes::<L>(valid & !kept);
-                if kept == 0 {
-                    continue;
-                }
-                let h = self.test.test(self.l, self.ray, (block, first, kept), tmax);
-                let mut lanes = h.mask.bits();
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let hit = Hit {
-                        t: h.t.extract(lane),
-                        u: h.u.extract(lane),
-                        v: h.v.extract(lane),
-                        triangle: block.ids[first + lane],
-                    };
-                    if (self.accept)(&hit) {
-                        self.found = true;
-                        return None;
-                    }
-                }
-            }
-            Some(f32::INFINITY)
+    let mut v = Any::new(l, ray, test, cull, accept);
+    traverse_lanes(l, tree, ray, &mut v);
+    (v.found, v.leaves.counters)
+}
+
+/// The leaf visitor of [`any_hit`].
+struct Any<'a, L, T, C, A> {
+    leaves: RayLeaves<'a, L, T, C, A>,
+    found: bool,
+}
+
+impl<'a, L: Lanes, T: BlockTest, C: TriangleCull, A> Any<'a, L, T, C, A> {
+    #[inline(always)]
+    fn new(l: L, ray: &'a Ray, test: &'a T, cull: C, accept: A) -> Self {
+        Any {
+            leaves: RayLeaves::new(l, ray, test, cull, accept),
+            found: false,
         }
     }
-    let mut v = Any {
-        l,
-        ray,
-        test,
-        cull,
-        accept,
-        found: false,
-        counters: RayCounters::default(),
-    };
-    traverse_lanes(l, tree, ray, &mut v);
-    (v.found, v.counters)
+}
+
+impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
+    for Any<'_, L, T, C, A>
+{
+    #[inline(always)]
+    fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
+        if !self.leaves.enter(&leaf) {
+            return Some(f32::INFINITY);
+        }
+        let mut vectors = lane_vectors::<L>(&leaf);
+        #[allow(clippy::while_let_on_iterator)]
+        while let Some((block, index, first, valid)) = vectors.next() {
+            let tmax = self.leaves.ray.tmax;
+            let Some(h) = self.leaves.test((block, index, first, valid), tmax) else {
+                continue;
+            };
+            let mut lanes = h.mask.bits();
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let hit = Hit {
+                    t: h.t.extract(lane),
+                    u: h.u.extract(lane),
+                    v: h.v.extract(lane),
+                    triangle: block.ids[first + lane],
+                };
+                if (self.leaves.accept)(&hit) {
+                    self.found = true;
+                    return None;
+                }
+            }
+        }
+        Some(f32::INFINITY)
+    }
+}
+
+/// The test of one ray, made from the ray (the watertight test's shear is per ray).
+pub(crate) trait RayTest: BlockTest {
+    /// The test of `ray`.
+    fn for_ray(ray: &Ray) -> Self;
+}
+
+impl RayTest for KsTest {
+    #[inline(always)]
+    fn for_ray(_: &Ray) -> Self {
+        KsTest
+    }
+}
+
+impl RayTest for WatertightTest {
+    #[inline(always)]
+    fn for_ray(ray: &Ray) -> Self {
+        WatertightTest(WatertightRay::new(ray))
+    }
+}
+
+/// Two rays unculled, each with its own test `T`, every hit accepted: with `ANY`, whether each
+/// hits anything (its hit then [`Hit::NONE`]), otherwise each one's closest hit, exactly as
+/// [`closest_hit`] and [`any_hit`] give them; on SIMD lanes the two walks interleaved
+/// ([`super::wide::traverse_pair`]), so that the CPU overlaps their latencies.
+#[inline(always)]
+pub(crate) fn pair<L: Lanes, T: RayTest, const ANY: bool>(
+    l: L,
+    tree: &KdTree,
+    rays: [&Ray; 2],
+) -> [(bool, Hit, RayCounters); 2] {
+    let tests = [T::for_ray(rays[0]), T::for_ray(rays[1])];
+    let accept = |_: &Hit| true;
+    if ANY {
+        let mut a = Any::new(l, rays[0], &tests[0], NoCull, accept);
+        let mut b = Any::new(l, rays[1], &tests[1], NoCull, accept);
+        traverse_pair(l, tree, rays, [&mut a, &mut b]);
+        [
+            (a.found, Hit::NONE, a.leaves.counters),
+            (b.found, Hit::NONE, b.leaves.counters),
+        ]
+    } else {
+        let mut a = Closest::new(l, rays[0], &tests[0], NoCull, accept);
+        let mut b = Closest::new(l, rays[1], &tests[1], NoCull, accept);
+        traverse_pair(l, tree, rays, [&mut a, &mut b]);
+        [
+            (a.hit.is_hit(), a.hit, a.leaves.counters),
+            (b.hit.is_hit(), b.hit, b.leaves.counters),
+        ]
+    }
+}
+
+/// [`traverse_lanes`] of two rays: interleaved on SIMD lanes, one after the other on scalar
+/// ones.
+#[inline(always)]
+fn traverse_pair<L: Lanes, V: LeafVisitor>(
+    l: L,
+    tree: &KdTree,
+    rays: [&Ray; 2],
+    visitors: [&mut V; 2],
+) {
+    let [a, b] = visitors;
+    if L::WIDTH == 1 {
+        traverse(tree, rays[0], a);
+        traverse(tree, rays[1], b);
+    } else {
+        super::wide::traverse_pair(l.up_to_8(), tree, rays, [a, b]);
+    }
 }
 
 /// A single-ray query as a task generic over the lanes: `ANY` for [`any_hit`] (the hit is then

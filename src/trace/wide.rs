@@ -31,6 +31,32 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray,
     );
 }
 
+/// [`traverse`] of two rays, interleaved ([`walk_pair`]); each visitor sees what its ray's own
+/// [`traverse`] shows it.
+#[inline(always)]
+pub(crate) fn traverse_pair<L: Lanes, V: LeafVisitor>(
+    l: L,
+    tree: &KdTree,
+    rays: [&Ray; 2],
+    visitors: [&mut V; 2],
+) {
+    let [a, b] = visitors;
+    match (is_traceable(rays[0]), is_traceable(rays[1])) {
+        (true, true) => walk_pair(
+            l,
+            tree.wide_nodes().nodes(),
+            rays,
+            [
+                &mut KdLeaves { tree, visitor: a },
+                &mut KdLeaves { tree, visitor: b },
+            ],
+        ),
+        (true, false) => traverse(l, tree, rays[0], a),
+        (false, true) => traverse(l, tree, rays[1], b),
+        (false, false) => {}
+    }
+}
+
 /// What a walk of wide nodes ([`walk`]) does in each leaf it enters.
 ///
 /// A trait rather than a closure so that `#[inline(always)]` keeps the leaf's work inside the
@@ -65,76 +91,142 @@ impl<V: LeafVisitor> WideLeaves for KdLeaves<'_, V> {
 /// nodes: no leaf.
 #[inline(always)]
 pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut impl WideLeaves) {
-    debug_assert!(L::WIDTH <= WIDE);
     if nodes.is_empty() {
         return;
     }
-    let inv = ray.direction.recip();
-    let (o, iv) = (ray.origin.to_array(), inv.to_array());
-    let origin = [l.splat(o[0]), l.splat(o[1]), l.splat(o[2])];
-    let inv_direction = [l.splat(iv[0]), l.splat(iv[1]), l.splat(iv[2])];
-    // The planes a ray enters by: `min` unless the reciprocal is negative (`−0` included).
-    let (mut enter, mut exit) = ([0; 3], [3; 3]);
-    let mut err = 0f32;
-    for k in 0..3 {
-        if iv[k] < 0.0 {
-            (enter[k], exit[k]) = (3 + k, k);
-        } else {
-            (enter[k], exit[k]) = (k, 3 + k);
+    let mut w = Walker::new(l, ray);
+    while w.step(l, nodes, leaves) {}
+}
+
+/// [`walk`] of two rays at once, a step of each in turn: each ray's steps form one long chain
+/// of dependent loads and arithmetic, and two independent chains let the CPU overlap them.
+/// Each ray sees exactly what its own [`walk`] sees.
+#[inline(always)]
+pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
+    l: L,
+    nodes: &[WideNode],
+    rays: [&Ray; 2],
+    leaves: [&mut W; 2],
+) {
+    if nodes.is_empty() {
+        return;
+    }
+    let [a, b] = leaves;
+    let (mut wa, mut wb) = (Walker::new(l, rays[0]), Walker::new(l, rays[1]));
+    let (mut on_a, mut on_b) = (true, true);
+    while on_a && on_b {
+        on_a = wa.step(l, nodes, a);
+        on_b = wb.step(l, nodes, b);
+    }
+    while on_a && wa.step(l, nodes, a) {}
+    while on_b && wb.step(l, nodes, b) {}
+}
+
+/// One ray's walk of wide nodes, a node or a leaf per [`Walker::step`].
+struct Walker<L: Lanes> {
+    origin: [L::F32; 3],
+    inv_direction: [L::F32; 3],
+    /// The rows of a node's planes the ray enters and leaves its children's boxes by.
+    enter: [usize; 3],
+    exit: [usize; 3],
+    err: L::F32,
+    tmin: L::F32,
+    tmax: f32,
+    stack: [(WideChild, f32, f32); WIDE_STACK],
+    top: usize,
+    best_t: f32,
+    /// The child to visit next, and the interval the ray enters it over.
+    child: WideChild,
+    t_enter: f32,
+    t_exit: f32,
+}
+
+impl<L: Lanes> Walker<L> {
+    /// At the root, over `[tmin, tmax]`.
+    #[inline(always)]
+    fn new(l: L, ray: &Ray) -> Self {
+        debug_assert!(L::WIDTH <= WIDE);
+        let inv = ray.direction.recip();
+        let (o, iv) = (ray.origin.to_array(), inv.to_array());
+        // The planes a ray enters by: `min` unless the reciprocal is negative (`−0` included).
+        let (mut enter, mut exit) = ([0; 3], [3; 3]);
+        let mut err = 0f32;
+        for k in 0..3 {
+            if iv[k] < 0.0 {
+                (enter[k], exit[k]) = (3 + k, k);
+            } else {
+                (enter[k], exit[k]) = (k, 3 + k);
+            }
+            let e = (o[k] * iv[k]).abs();
+            if e.is_finite() {
+                err = err.max(e);
+            }
         }
-        let e = (o[k] * iv[k]).abs();
-        if e.is_finite() {
-            err = err.max(e);
+        Walker {
+            origin: [l.splat(o[0]), l.splat(o[1]), l.splat(o[2])],
+            inv_direction: [l.splat(iv[0]), l.splat(iv[1]), l.splat(iv[2])],
+            enter,
+            exit,
+            err: l.splat(err),
+            tmin: l.splat(ray.tmin),
+            tmax: ray.tmax,
+            stack: [(WideChild::NONE, 0.0, 0.0); WIDE_STACK],
+            top: 0,
+            best_t: f32::INFINITY,
+            child: WideChild::node(0),
+            t_enter: ray.tmin,
+            t_exit: ray.tmax,
         }
     }
-    let (err, eps, tmin) = (l.splat(err), l.splat(INTERVAL_EPS), l.splat(ray.tmin));
-    let mut stack = [(WideChild::NONE, 0f32, 0f32); WIDE_STACK];
-    let mut top = 0;
-    let mut best_t = f32::INFINITY;
-    let (mut child, mut t_enter, mut t_exit) = (WideChild::node(0), ray.tmin, ray.tmax);
-    loop {
-        if child.is_node() {
-            let node = &nodes[child.index() as usize];
-            let tmax = l.splat(ray.tmax.min(best_t));
+
+    /// Visits the next node or leaf; `false` once the walk is over.
+    #[inline(always)]
+    fn step(&mut self, l: L, nodes: &[WideNode], leaves: &mut impl WideLeaves) -> bool {
+        if self.child.is_node() {
+            let node = &nodes[self.child.index() as usize];
+            let tmax = l.splat(self.tmax.min(self.best_t));
+            let eps = l.splat(INTERVAL_EPS);
             let (mut near, mut far) = ([0f32; WIDE], [0f32; WIDE]);
             let mut entered = 0u32;
             for at in (0..WIDE).step_by(L::WIDTH) {
                 let (n, f) = clip_planes(
-                    &origin,
-                    &inv_direction,
-                    planes(l, node, enter, at),
-                    planes(l, node, exit, at),
-                    tmin,
+                    &self.origin,
+                    &self.inv_direction,
+                    planes(l, node, self.enter, at),
+                    planes(l, node, self.exit, at),
+                    self.tmin,
                     tmax,
                 );
-                let n = n - (n.abs() + err) * eps;
-                let f = f + (f.abs() + err) * eps;
+                let n = n - (n.abs() + self.err) * eps;
+                let f = f + (f.abs() + self.err) * eps;
                 entered |= n.le(f).bits() << at;
                 l.store(n, &mut near[at..]);
                 l.store(f, &mut far[at..]);
             }
             if entered != 0 {
+                let (stack, top) = (&mut self.stack, &mut self.top);
                 let first = nearest_first(entered, &near, |k| {
-                    stack[top] = (node.children[k], near[k], far[k]);
-                    top += 1;
+                    stack[*top] = (node.children[k], near[k], far[k]);
+                    *top += 1;
                 });
-                (child, t_enter, t_exit) = (node.children[first], near[first], far[first]);
-                continue;
+                (self.child, self.t_enter, self.t_exit) =
+                    (node.children[first], near[first], far[first]);
+                return true;
             }
         } else {
-            match leaves.visit(child.index(), t_enter, t_exit) {
-                Some(t) => best_t = t,
-                None => return,
+            match leaves.visit(self.child.index(), self.t_enter, self.t_exit) {
+                Some(t) => self.best_t = t,
+                None => return false,
             }
         }
         loop {
-            if top == 0 {
-                return;
+            if self.top == 0 {
+                return false;
             }
-            top -= 1;
-            (child, t_enter, t_exit) = stack[top];
-            if t_enter <= best_t {
-                break;
+            self.top -= 1;
+            (self.child, self.t_enter, self.t_exit) = self.stack[self.top];
+            if self.t_enter <= self.best_t {
+                return true;
             }
         }
     }
