@@ -41,6 +41,9 @@ impl WideChild {
     /// No child: its box is empty, so no ray enters it.
     pub const NONE: WideChild = WideChild(u32::MAX);
 
+    /// The root node, node 0.
+    pub const ROOT: WideChild = WideChild(0);
+
     /// The wide node of index `index`.
     #[inline(always)]
     #[must_use]

@@ -94,8 +94,9 @@ pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut i
     if nodes.is_empty() {
         return;
     }
+    let mut stack = [PENDING_NONE; WIDE_STACK];
     let mut w = Walker::new(l, ray);
-    while w.step(l, nodes, leaves) {}
+    while w.step(l, nodes, &mut stack, leaves) {}
 }
 
 /// [`walk`] of two rays at once, a step of each in turn: each ray's steps form one long chain
@@ -113,16 +114,24 @@ pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
     }
     let [a, b] = leaves;
     let (mut wa, mut wb) = (Walker::new(l, rays[0]), Walker::new(l, rays[1]));
+    let (mut sa, mut sb) = ([PENDING_NONE; WIDE_STACK], [PENDING_NONE; WIDE_STACK]);
     let (mut on_a, mut on_b) = (true, true);
     while on_a && on_b {
-        on_a = wa.step(l, nodes, a);
-        on_b = wb.step(l, nodes, b);
+        on_a = wa.step(l, nodes, &mut sa, a);
+        on_b = wb.step(l, nodes, &mut sb, b);
     }
-    while on_a && wa.step(l, nodes, a) {}
-    while on_b && wb.step(l, nodes, b) {}
+    while on_a && wa.step(l, nodes, &mut sa, a) {}
+    while on_b && wb.step(l, nodes, &mut sb, b) {}
 }
 
-/// One ray's walk of wide nodes, a node or a leaf per [`Walker::step`].
+/// A child left for later, with the interval the ray enters it over.
+type Pending = (WideChild, f32, f32);
+
+/// An unused stack entry: all zero bits, so that a stack of them is made by `memset`.
+const PENDING_NONE: Pending = (WideChild::ROOT, 0.0, 0.0);
+
+/// One ray's walk of wide nodes, a node or a leaf per [`Walker::step`]. Its stack is the
+/// caller's, apart from the rest of its state, which then stays in registers.
 struct Walker<L: Lanes> {
     origin: [L::F32; 3],
     inv_direction: [L::F32; 3],
@@ -132,7 +141,6 @@ struct Walker<L: Lanes> {
     err: L::F32,
     tmin: L::F32,
     tmax: f32,
-    stack: [(WideChild, f32, f32); WIDE_STACK],
     top: usize,
     best_t: f32,
     /// The child to visit next, and the interval the ray enters it over.
@@ -170,18 +178,24 @@ impl<L: Lanes> Walker<L> {
             err: l.splat(err),
             tmin: l.splat(ray.tmin),
             tmax: ray.tmax,
-            stack: [(WideChild::NONE, 0.0, 0.0); WIDE_STACK],
             top: 0,
             best_t: f32::INFINITY,
-            child: WideChild::node(0),
+            child: WideChild::ROOT,
             t_enter: ray.tmin,
             t_exit: ray.tmax,
         }
     }
 
-    /// Visits the next node or leaf; `false` once the walk is over.
+    /// Visits the next node or leaf, children left for later going on `stack`; `false` once
+    /// the walk is over.
     #[inline(always)]
-    fn step(&mut self, l: L, nodes: &[WideNode], leaves: &mut impl WideLeaves) -> bool {
+    fn step(
+        &mut self,
+        l: L,
+        nodes: &[WideNode],
+        stack: &mut [Pending; WIDE_STACK],
+        leaves: &mut impl WideLeaves,
+    ) -> bool {
         if self.child.is_node() {
             let node = &nodes[self.child.index() as usize];
             let tmax = l.splat(self.tmax.min(self.best_t));
@@ -204,7 +218,7 @@ impl<L: Lanes> Walker<L> {
                 l.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let (stack, top) = (&mut self.stack, &mut self.top);
+                let top = &mut self.top;
                 let first = nearest_first(entered, &near, |k| {
                     stack[*top] = (node.children[k], near[k], far[k]);
                     *top += 1;
@@ -224,7 +238,7 @@ impl<L: Lanes> Walker<L> {
                 return false;
             }
             self.top -= 1;
-            (self.child, self.t_enter, self.t_exit) = self.stack[self.top];
+            (self.child, self.t_enter, self.t_exit) = stack[self.top];
             if self.t_enter <= self.best_t {
                 return true;
             }
