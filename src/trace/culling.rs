@@ -71,11 +71,13 @@ pub enum Frustum {
     ///   0.25 of each other but that start apart (a tile's shadow rays, converging on the
     ///   light): the one interval of the whole-packet traversal would bound their segments
     ///   loosely;
-    /// - ray by ray for the rest (ambient-occlusion and diffuse rays, and packets of at most 16
-    ///   rays), whose beams cost more than they cull: each ray is traced as
+    /// - no beam for at most 16 such rays, whose beam costs more than it culls: the per-ray
+    ///   packet traversal, the setting's other stages (ray-box culling) kept;
+    /// - ray by ray for the rest (ambient-occlusion and diffuse rays), whose directions differ
+    ///   too much for a beam and for a shared traversal: each ray is traced as
     ///   [`Tracer::intersect`](crate::Tracer::intersect) traces it, with the setting's
     ///   single-ray stages, through the tree's wide nodes on SIMD lanes (a vector of child
-    ///   boxes per step), which outrun the per-ray packet traversal on rays this far apart.
+    ///   boxes per step), two rays' walks interleaved.
     Coherent,
 }
 
@@ -352,12 +354,15 @@ impl Culling {
                 min_rays: 1,
                 ..self
             })
-        } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS
-            && s.direction <= MAX_BEAM_DIRECTION_SPREAD
-        {
+        } else if s.direction > MAX_BEAM_DIRECTION_SPREAD {
+            PacketTrace::RayByRay
+        } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS {
             PacketTrace::Packet(self.with_frustum(Frustum::Adaptive))
         } else {
-            PacketTrace::RayByRay
+            PacketTrace::Packet(Culling {
+                planes: Planes::None,
+                ..self
+            })
         }
     }
 
@@ -668,9 +673,13 @@ mod tests {
             (resolved.frustum, resolved.planes),
             (Frustum::Adaptive, Planes::Six)
         );
-        // Sixteen of them, and rays over a hemisphere: ray by ray.
+        // Sixteen of them: no beam, ray-box culling kept.
+        let resolved = resolve(&packet(16, &shadow));
+        assert!(!resolved.is_enabled(), "{resolved:?}");
+        assert_eq!(resolved.raybox, RayBoxes::Auto);
+        // Rays over a hemisphere: ray by ray, however many.
         let hemisphere = |f: f32| Ray::new(Vec3::ZERO, Vec3::new(f - 0.5, 0.3, 1.0 - f));
-        for p in [packet(16, &shadow), packet(64, &hemisphere)] {
+        for p in [packet(16, &hemisphere), packet(64, &hemisphere)] {
             assert_eq!(trace(&p), PacketTrace::RayByRay);
         }
         // A setting that is not `Coherent` is traced as it is.
