@@ -139,6 +139,13 @@ struct Walker<L: Lanes> {
     enter: [usize; 3],
     exit: [usize; 3],
     err: L::F32,
+    /// `tmin >= 0`: every box's entry is then at least 0, and its widening one `mul_add`.
+    nonnegative: bool,
+    /// The widening of a non-negative entry `n` and exit `f` ([`Walker::step`]).
+    near_scale: L::F32,
+    near_shift: L::F32,
+    far_scale: L::F32,
+    far_shift: L::F32,
     tmin: L::F32,
     tmax: f32,
     top: usize,
@@ -176,6 +183,11 @@ impl<L: Lanes> Walker<L> {
             enter,
             exit,
             err: l.splat(err),
+            nonnegative: ray.tmin >= 0.0,
+            near_scale: l.splat(1.0 - INTERVAL_EPS),
+            near_shift: l.splat(-err * INTERVAL_EPS),
+            far_scale: l.splat(1.0 + INTERVAL_EPS),
+            far_shift: l.splat(err * INTERVAL_EPS * (1.0 + 8.0 * INTERVAL_EPS)),
             tmin: l.splat(ray.tmin),
             tmax: ray.tmax,
             top: 0,
@@ -211,8 +223,22 @@ impl<L: Lanes> Walker<L> {
                     self.tmin,
                     tmax,
                 );
-                let n = n - (n.abs() + self.err) * eps;
-                let f = f + (f.abs() + self.err) * eps;
+                // Widened by `(|t| + err)·eps` each. With `tmin >= 0` the entry `n` is at least
+                // 0, so `n − (n + err)·eps` is one `mul_add`; so is the exit's `f + (f + err)·eps`
+                // where `f >= 0`, and where `f < 0` the box is entered only if `|f|` is within
+                // `2·err·eps` of 0 (as `n >= −err·eps`), which the shift's extra `8·eps` of itself
+                // covers.
+                let (n, f) = if self.nonnegative {
+                    (
+                        n.mul_add(self.near_scale, self.near_shift),
+                        f.mul_add(self.far_scale, self.far_shift),
+                    )
+                } else {
+                    (
+                        n - (n.abs() + self.err) * eps,
+                        f + (f.abs() + self.err) * eps,
+                    )
+                };
                 entered |= n.le(f).bits() << at;
                 l.store(n, &mut near[at..]);
                 l.store(f, &mut far[at..]);
