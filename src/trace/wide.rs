@@ -9,6 +9,10 @@
 //! that box at the hit, so the leaf is entered unless a hit before it is already known; ties
 //! in `t` go to the smaller id ([`Hit::is_beaten_by`](kdbeam_kernels::Hit::is_beaten_by)) in
 //! any order.
+//!
+//! The walk ([`walk`]) serves any wide nodes: a kd-tree's, and a scene's top level over its
+//! instances. Two rays may walk at once ([`walk_pair`]), a step of each in turn: one ray's walk
+//! is a single chain of dependent loads and arithmetic, and the CPU overlaps two.
 
 use kdbeam_kernels::slab::clip_planes;
 use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray};
