@@ -17,7 +17,6 @@ pub(crate) mod wide;
 
 use std::marker::PhantomData;
 
-use kdbeam_kernels::intersect::watertight::WatertightRay;
 use kdbeam_kernels::lanes::Dispatch;
 use kdbeam_kernels::Hit;
 use kdbeam_kernels::{HitPacket, Isa, LaneTask, Lanes, PacketShape, Ray, RayPacket};
@@ -494,23 +493,32 @@ pub(crate) fn single_ray_on<L: Lanes, const ANY: bool>(
     accept: impl FnMut(&Hit) -> bool,
 ) -> (bool, Hit, RayCounters) {
     match intersector {
-        Intersector::KenslerShirley => single::SingleRay::<_, _, _, ANY> {
-            tree,
-            ray,
-            test: KsTest,
-            cull,
-            accept,
+        Intersector::KenslerShirley => {
+            single_ray_with::<L, KsTest, ANY>(l, tree, ray, cull, accept)
         }
-        .run(l),
-        Intersector::Watertight => single::SingleRay::<_, _, _, ANY> {
-            tree,
-            ray,
-            test: WatertightTest(WatertightRay::new(ray)),
-            cull,
-            accept,
+        Intersector::Watertight => {
+            single_ray_with::<L, WatertightTest, ANY>(l, tree, ray, cull, accept)
         }
-        .run(l),
     }
+}
+
+/// [`single_ray_on`] with the test `T`, made for `ray`.
+#[inline(always)]
+fn single_ray_with<L: Lanes, T: RayTest, const ANY: bool>(
+    l: L,
+    tree: &KdTree,
+    ray: &Ray,
+    cull: impl TriangleCull,
+    accept: impl FnMut(&Hit) -> bool,
+) -> (bool, Hit, RayCounters) {
+    single::SingleRay::<_, _, _, ANY> {
+        tree,
+        ray,
+        test: T::for_ray(ray),
+        cull,
+        accept,
+    }
+    .run(l)
 }
 
 /// [`single_ray`] as a task generic over the lanes.
@@ -617,14 +625,8 @@ impl<T: RayTest, R: FnMut(usize, (bool, Hit, RayCounters)), const ANY: bool> Lan
             lanes &= lanes - 1;
             let first = self.packet.ray(i);
             if lanes == 0 {
-                let result = single::SingleRay::<_, _, _, ANY> {
-                    tree: self.tree,
-                    ray: &first,
-                    test: T::for_ray(&first),
-                    cull: NoCull,
-                    accept: |_: &Hit| true,
-                }
-                .run(l);
+                let result =
+                    single_ray_with::<L, T, ANY>(l, self.tree, &first, NoCull, |_: &Hit| true);
                 (self.record)(i, result);
                 return;
             }
