@@ -14,6 +14,7 @@
 //! instances. Two rays may walk at once ([`walk_pair`]), a step of each in turn: one ray's walk
 //! is a single chain of dependent loads and arithmetic, and the CPU overlaps two.
 
+use arrayvec::ArrayVec;
 use kdbeam_kernels::slab::clip_planes;
 use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray};
 
@@ -98,7 +99,7 @@ pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut i
     if nodes.is_empty() {
         return;
     }
-    let mut stack = [PENDING_NONE; WIDE_STACK];
+    let mut stack = Stack::new();
     let mut w = Walker::new(l, ray);
     while w.step(l, nodes, &mut stack, leaves) {}
 }
@@ -118,7 +119,7 @@ pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
     }
     let [a, b] = leaves;
     let (mut wa, mut wb) = (Walker::new(l, rays[0]), Walker::new(l, rays[1]));
-    let (mut sa, mut sb) = ([PENDING_NONE; WIDE_STACK], [PENDING_NONE; WIDE_STACK]);
+    let (mut sa, mut sb) = (Stack::new(), Stack::new());
     let (mut on_a, mut on_b) = (true, true);
     while on_a && on_b {
         on_a = wa.step(l, nodes, &mut sa, a);
@@ -131,8 +132,9 @@ pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
 /// A child left for later, with the interval the ray enters it over.
 type Pending = (WideChild, f32, f32);
 
-/// An unused stack entry: all zero bits, so that a stack of them is made by `memset`.
-const PENDING_NONE: Pending = (WideChild::ROOT, 0.0, 0.0);
+/// The children a walk has left for later, nearest on top. Not initialised: a walk's stack is
+/// made for every ray, and most rays use a few of its entries.
+type Stack = ArrayVec<Pending, WIDE_STACK>;
 
 /// One ray's walk of wide nodes, a node or a leaf per [`Walker::step`]. Its stack is the
 /// caller's, apart from the rest of its state, which then stays in registers.
@@ -152,7 +154,6 @@ struct Walker<L: Lanes> {
     far_shift: L::F32,
     tmin: L::F32,
     tmax: f32,
-    top: usize,
     best_t: f32,
     /// The child to visit next, and the interval the ray enters it over.
     child: WideChild,
@@ -194,7 +195,6 @@ impl<L: Lanes> Walker<L> {
             far_shift: l.splat(err * INTERVAL_EPS * (1.0 + 8.0 * INTERVAL_EPS)),
             tmin: l.splat(ray.tmin),
             tmax: ray.tmax,
-            top: 0,
             best_t: f32::INFINITY,
             child: WideChild::ROOT,
             t_enter: ray.tmin,
@@ -209,7 +209,7 @@ impl<L: Lanes> Walker<L> {
         &mut self,
         l: L,
         nodes: &[WideNode],
-        stack: &mut [Pending; WIDE_STACK],
+        stack: &mut Stack,
         leaves: &mut impl WideLeaves,
     ) -> bool {
         if self.child.is_node() {
@@ -248,10 +248,8 @@ impl<L: Lanes> Walker<L> {
                 l.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let top = &mut self.top;
                 let first = nearest_first(entered, &near, |k| {
-                    stack[*top] = (node.children[k], near[k], far[k]);
-                    *top += 1;
+                    stack.push((node.children[k], near[k], far[k]));
                 });
                 (self.child, self.t_enter, self.t_exit) =
                     (node.children[first], near[first], far[first]);
@@ -263,16 +261,13 @@ impl<L: Lanes> Walker<L> {
                 None => return false,
             }
         }
-        loop {
-            if self.top == 0 {
-                return false;
-            }
-            self.top -= 1;
-            (self.child, self.t_enter, self.t_exit) = stack[self.top];
+        while let Some(pending) = stack.pop() {
+            (self.child, self.t_enter, self.t_exit) = pending;
             if self.t_enter <= self.best_t {
                 return true;
             }
         }
+        false
     }
 }
 
