@@ -380,8 +380,13 @@ fn lane_vectors<'a, L: Lanes>(
     let base = leaf.record.first as usize;
     let lane_bits = if w >= 32 { u32::MAX } else { (1u32 << w) - 1 };
     (0..len.div_ceil(w)).map(move |v| {
-        let (b, first) = (v * w / BLOCK, v * w % BLOCK);
-        let valid = TriangleBlock::valid_bits(len - b * BLOCK) >> first & lane_bits;
+        let (start, rest) = (v * w, len - v * w);
+        let valid = if rest >= w {
+            lane_bits
+        } else {
+            (1u32 << rest) - 1
+        };
+        let (b, first) = (start / BLOCK, start % BLOCK);
         (&blocks[b], base + b, first, valid)
     })
 }

@@ -17,7 +17,8 @@ pub struct Avx {
 }
 
 impl Avx {
-    /// The token, if this CPU supports AVX2 and FMA.
+    /// The token, if this CPU supports AVX2 and FMA (and POPCNT, LZCNT, BMI1 and BMI2, which
+    /// every such CPU has).
     #[cfg(feature = "std")]
     #[inline]
     #[must_use]
@@ -29,8 +30,8 @@ impl Avx {
     ///
     /// # Safety
     ///
-    /// The CPU running the program must support AVX2 and FMA: every vector operation made through
-    /// this token executes AVX, AVX2 or FMA instructions.
+    /// The CPU running the program must support AVX2, FMA, POPCNT, LZCNT, BMI1 and BMI2: every
+    /// operation made through this token executes such instructions.
     #[must_use]
     pub const unsafe fn new_unchecked() -> Self {
         Avx { _proof: () }
@@ -51,12 +52,13 @@ pub struct AvxMask(__m256);
 pub struct AvxCount(__m256i);
 
 /// The `#[target_feature]` entry point: `task` and everything it inlines compile for AVX2 + FMA
-/// (256-bit `ymm` instructions, VEX encoding, `vfmadd`).
+/// (256-bit `ymm` instructions, VEX encoding, `vfmadd`) and the bit instructions (POPCNT, LZCNT,
+/// BMI1, BMI2).
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2 and FMA (an [`Avx`] token proves it).
-#[target_feature(enable = "avx2,fma")]
+/// The CPU must support AVX2, FMA and the bit instructions (an [`Avx`] token proves it).
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 unsafe fn enter_avx2_fma<T: LaneTask>(lanes: Avx, task: T) -> T::Output {
     task.run(lanes)
 }

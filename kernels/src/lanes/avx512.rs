@@ -12,14 +12,14 @@ use super::{Isa, LaneCount, LaneF32, LaneMask, LaneTask, Lanes};
 ///
 /// It can only be made by [`Avx512::try_new`] (run-time detection) or
 /// [`Avx512::new_unchecked`] (a promise), so holding one proves the CPU runs AVX-512F, BW, DQ
-/// and VL (and AVX2 and FMA, which every such CPU has).
+/// and VL (and AVX2, FMA, POPCNT, LZCNT, BMI1 and BMI2, which every such CPU has).
 #[derive(Clone, Copy, Debug)]
 pub struct Avx512 {
     _proof: (),
 }
 
 impl Avx512 {
-    /// The token, if this CPU supports AVX-512F/BW/DQ/VL, AVX2 and FMA.
+    /// The token, if this CPU supports AVX-512F/BW/DQ/VL and the AVX2 token's features.
     #[cfg(feature = "std")]
     #[inline]
     pub fn try_new() -> Option<Self> {
@@ -30,8 +30,9 @@ impl Avx512 {
     ///
     /// # Safety
     ///
-    /// The CPU running the program must support AVX-512F, AVX-512BW, AVX-512DQ, AVX-512VL, AVX2
-    /// and FMA: every vector operation made through this token executes such instructions.
+    /// The CPU running the program must support AVX-512F, AVX-512BW, AVX-512DQ, AVX-512VL, AVX2,
+    /// FMA, POPCNT, LZCNT, BMI1 and BMI2: every operation made through this token executes such
+    /// instructions.
     pub const unsafe fn new_unchecked() -> Self {
         Avx512 { _proof: () }
     }
@@ -55,8 +56,9 @@ pub struct Avx512Count(__m512i);
 ///
 /// # Safety
 ///
-/// The CPU must support AVX-512F/BW/DQ/VL, AVX2 and FMA (an [`Avx512`] token proves it).
-#[target_feature(enable = "avx2,fma,avx512f,avx512bw,avx512dq,avx512vl")]
+/// The CPU must support AVX-512F/BW/DQ/VL, AVX2, FMA and the bit instructions (an [`Avx512`]
+/// token proves it).
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2,avx512f,avx512bw,avx512dq,avx512vl")]
 unsafe fn enter_avx512<T: LaneTask>(lanes: Avx512, task: T) -> T::Output {
     task.run(lanes)
 }

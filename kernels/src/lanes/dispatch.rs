@@ -150,14 +150,15 @@ impl Dispatch {
             }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => {
-                // SAFETY: `self.isa` is `Avx2` only if `Dispatch::new` found AVX2 and FMA on
-                // this CPU or the caller of `new_unchecked` promised them.
+                // SAFETY: `self.isa` is `Avx2` only if `Dispatch::new` found AVX2, FMA and the bit
+                // instructions on this CPU or the caller of `new_unchecked` promised them.
                 unsafe { Avx::new_unchecked() }.run(task)
             }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
-                // SAFETY: `self.isa` is `Avx512` only if `Dispatch::new` found AVX-512F/BW/DQ/VL,
-                // AVX2 and FMA on this CPU or the caller of `new_unchecked` promised them.
+                // SAFETY: `self.isa` is `Avx512` only if `Dispatch::new` found AVX-512F/BW/DQ/VL
+                // and the AVX2 token's features on this CPU or the caller of `new_unchecked`
+                // promised them.
                 unsafe { Avx512::new_unchecked() }.run(task)
             }
             #[cfg(not(target_arch = "x86_64"))]

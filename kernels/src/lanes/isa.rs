@@ -56,8 +56,15 @@ impl Isa {
             #[cfg(target_arch = "x86_64")]
             Isa::Sse => std::is_x86_feature_detected!("sse4.1"),
             #[cfg(target_arch = "x86_64")]
+            // The bit instructions came with AVX2 on every x86 CPU that has it (Haswell,
+            // Excavator); the AVX2 entry point uses them for its mask and counter arithmetic.
             Isa::Avx2 => {
-                std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma")
+                std::is_x86_feature_detected!("avx2")
+                    && std::is_x86_feature_detected!("fma")
+                    && std::is_x86_feature_detected!("popcnt")
+                    && std::is_x86_feature_detected!("lzcnt")
+                    && std::is_x86_feature_detected!("bmi1")
+                    && std::is_x86_feature_detected!("bmi2")
             }
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => {
