@@ -75,6 +75,64 @@ pub fn clip_planes<F: LaneF32>(
     (near, far)
 }
 
+/// [`clip_planes`] with each plane's distance as one multiply-add, `plane·inv + offset`, for a
+/// caller that widens the interval it gets: one operation off the chain of a box test.
+///
+/// `offset` is [`fused_offsets`] of the ray. Each distance then differs from the exact
+/// `(plane − o)·inv` by at most about 2⁻²³·(|t| + |o·inv|): the rounding of the product `o·inv`
+/// and of the sum, and on ISAs without FMA of the product `plane·inv` (at most `|t| + |o·inv|`
+/// in size), where [`clip_planes`] differs by about 2⁻²³·|t|. A caller that widens each entry
+/// and exit by more than that, relative to the largest finite `|o·inv|` of the ray, enters
+/// every box the ray meets.
+///
+/// Zero components: the distance is either the one [`clip_planes`] computes (`±inf`) or NaN,
+/// which, as there, leaves the axis unconstrained, so the result holds [`clip_planes`]'s
+/// interval. The same NaN stands for an axis whose `o·inv` overflows ([`fused_offsets`]).
+#[inline(always)]
+#[must_use]
+pub fn clip_planes_fused<F: LaneF32>(
+    offset: &[F; 3],
+    inv_direction: &[F; 3],
+    enter: [F; 3],
+    exit: [F; 3],
+    mut near: F,
+    mut far: F,
+) -> (F, F) {
+    for k in 0..3 {
+        near = enter[k].mul_add(inv_direction[k], offset[k]).max(near);
+        far = exit[k].mul_add(inv_direction[k], offset[k]).min(far);
+    }
+    (near, far)
+}
+
+/// The offsets of [`clip_planes_fused`]: `−o·inv` per axis, NaN where `inv` is finite and the
+/// product overflows (an origin far out along an axis the ray barely moves on), which leaves
+/// that axis unconstrained rather than closing every box with `∓inf`.
+///
+/// ```
+/// use kdbeam_kernels::slab::fused_offsets;
+/// use kdbeam_kernels::Vec3;
+///
+/// let o = fused_offsets(Vec3::new(1.0, 2.0, 1e30), Vec3::new(2.0, f32::INFINITY, 1e10));
+/// assert_eq!(&o[..2], &[-2.0, f32::NEG_INFINITY]);
+/// assert!(o[2].is_nan());
+/// ```
+#[inline(always)]
+#[must_use]
+pub fn fused_offsets(origin: Vec3, inv_direction: Vec3) -> [f32; 3] {
+    let (o, iv) = (origin.to_array(), inv_direction.to_array());
+    let mut offset = [0.0; 3];
+    for k in 0..3 {
+        let p = o[k] * iv[k];
+        offset[k] = if p.is_finite() || !iv[k].is_finite() {
+            -p
+        } else {
+            f32::NAN
+        };
+    }
+    offset
+}
+
 /// The part `[tnear, tfar]` of `[tmin, tmax]` where the ray `origin + t·d` is inside the closed
 /// box `b`, given `inv_direction = 1 / d` per component; `None` when it is empty.
 ///

@@ -1,7 +1,8 @@
 //! Single-ray traversal of the wide nodes ([`WideNodes`]): a vector of child boxes per step.
 //!
-//! The ray is clipped against the boxes of all children of a node at once ([`clip_planes`],
-//! the planes chosen once per ray by the signs of its direction), the children it enters are
+//! The ray is clipped against the boxes of all children of a node at once
+//! ([`clip_planes_fused`], the planes chosen once per ray by the signs of its direction, each
+//! plane's distance one multiply-add), the children it enters are
 //! taken nearest entry first, and the others wait on a stack with their intervals. A child
 //! whose entry lies beyond the closest hit so far is skipped. Visiting the leaves in another
 //! order than the binary traversal, or fewer of them, cannot change the closest hit: a hit in
@@ -15,7 +16,7 @@
 //! is a single chain of dependent loads and arithmetic, and the CPU overlaps two.
 
 use arrayvec::ArrayVec;
-use kdbeam_kernels::slab::clip_planes;
+use kdbeam_kernels::slab::{clip_planes_fused, fused_offsets};
 use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray};
 
 use super::single::{is_traceable, visit_leaf, LeafVisitor, INTERVAL_EPS};
@@ -91,9 +92,9 @@ impl<V: LeafVisitor> WideLeaves for KdLeaves<'_, V> {
 /// traceable `ray` enters, each over its box's interval, nearest entry first, until it stops.
 ///
 /// A box is entered over its slab interval widened by the slack of the binary traversal
-/// ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`, the rounding of
-/// `(plane − o)·inv`), and skipped once the closest hit so far lies strictly before it. No
-/// nodes: no leaf.
+/// ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`: sixteen times the
+/// rounding of the fused `plane·inv − o·inv`), and skipped once the closest hit so far lies
+/// strictly before it. No nodes: no leaf.
 #[inline(always)]
 pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut impl WideLeaves) {
     if nodes.is_empty() {
@@ -139,7 +140,8 @@ type Stack = ArrayVec<Pending, WIDE_STACK>;
 /// One ray's walk of wide nodes, a node or a leaf per [`Walker::step`]. Its stack is the
 /// caller's, apart from the rest of its state, which then stays in registers.
 struct Walker<L: Lanes> {
-    origin: [L::F32; 3],
+    /// `−o·inv` per axis ([`fused_offsets`]): a plane's distance is one `mul_add`.
+    offset: [L::F32; 3],
     inv_direction: [L::F32; 3],
     /// The rows of a node's planes the ray enters and leaves its children's boxes by.
     enter: [usize; 3],
@@ -182,8 +184,9 @@ impl<L: Lanes> Walker<L> {
                 err = err.max(e);
             }
         }
+        let offset = fused_offsets(ray.origin, inv);
         Walker {
-            origin: [l.splat(o[0]), l.splat(o[1]), l.splat(o[2])],
+            offset: [l.splat(offset[0]), l.splat(offset[1]), l.splat(offset[2])],
             inv_direction: [l.splat(iv[0]), l.splat(iv[1]), l.splat(iv[2])],
             enter,
             exit,
@@ -219,8 +222,8 @@ impl<L: Lanes> Walker<L> {
             let (mut near, mut far) = ([0f32; WIDE], [0f32; WIDE]);
             let mut entered = 0u32;
             for at in (0..WIDE).step_by(L::WIDTH) {
-                let (n, f) = clip_planes(
-                    &self.origin,
+                let (n, f) = clip_planes_fused(
+                    &self.offset,
                     &self.inv_direction,
                     planes(l, node, self.enter, at),
                     planes(l, node, self.exit, at),
