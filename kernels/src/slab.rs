@@ -24,7 +24,7 @@
 //! [`ray_box`] and [`slab_lanes`] share this code, so every lane of every ISA computes exactly
 //! what the single-ray form does.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use crate::aabb::Aabb;
 use crate::intersect::splat3;
@@ -120,17 +120,10 @@ pub fn clip_planes_fused<F: LaneF32>(
 #[inline(always)]
 #[must_use]
 pub fn fused_offsets(origin: Vec3, inv_direction: Vec3) -> [f32; 3] {
-    let (o, iv) = (origin.to_array(), inv_direction.to_array());
-    let mut offset = [0.0; 3];
-    for k in 0..3 {
-        let p = o[k] * iv[k];
-        offset[k] = if p.is_finite() || !iv[k].is_finite() {
-            -p
-        } else {
-            f32::NAN
-        };
-    }
-    offset
+    let inv = Vec3A::from(inv_direction);
+    let p = Vec3A::from(origin) * inv;
+    let kept = p.is_finite_mask() | !inv.is_finite_mask();
+    Vec3A::select(kept, -p, Vec3A::NAN).to_array()
 }
 
 /// The part `[tnear, tfar]` of `[tmin, tmax]` where the ray `origin + t·d` is inside the closed

@@ -6,12 +6,11 @@
 //! `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a leaf's triangles; traversal stops once
 //! the closest hit so far lies before the next cell.
 
+use glam::Vec3A;
 use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, LaneHits};
 use kdbeam_kernels::raybox::segment_box;
 use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{
-    slab, Aabb, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock, Vec3,
-};
+use kdbeam_kernels::{slab, Aabb, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock};
 
 use crate::kdtree::{KdTree, LeafRecord, LeafTriangles, Node};
 
@@ -107,11 +106,10 @@ impl TriangleCull for NoCull {
 #[inline(always)]
 #[must_use]
 pub fn is_traceable(ray: &Ray) -> bool {
-    ray.origin.is_finite()
-        && ray.direction.is_finite()
-        && ray.direction != Vec3::ZERO
-        && ray.tmin <= ray.tmax
-        && !ray.tmax.is_nan()
+    let (o, d) = (Vec3A::from(ray.origin), Vec3A::from(ray.direction));
+    // One vector test of the six coordinates (`bitmask` of the three lanes each).
+    let finite = (o.is_finite_mask() & d.is_finite_mask()).all();
+    finite && d.cmpne(Vec3A::ZERO).any() && ray.tmin <= ray.tmax && !ray.tmax.is_nan()
 }
 
 /// Walks the leaves `ray` passes through, nearest first, until `visitor` has its answer.

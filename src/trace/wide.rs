@@ -16,6 +16,7 @@
 //! is a single chain of dependent loads and arithmetic, and the CPU overlaps two.
 
 use arrayvec::ArrayVec;
+use glam::Vec3A;
 use kdbeam_kernels::slab::{clip_planes_fused, fused_offsets};
 use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray};
 
@@ -168,23 +169,17 @@ impl<L: Lanes> Walker<L> {
     #[inline(always)]
     fn new(l: L, ray: &Ray) -> Self {
         debug_assert!(L::WIDTH <= WIDE);
-        let inv = ray.direction.recip();
-        let (o, iv) = (ray.origin.to_array(), inv.to_array());
+        let inv = Vec3A::from(ray.direction).recip();
+        let size = (Vec3A::from(ray.origin) * inv).abs();
+        let err = Vec3A::select(size.is_finite_mask(), size, Vec3A::ZERO).max_element();
         // The planes a ray enters by: `min` unless the reciprocal is negative (`−0` included).
-        let (mut enter, mut exit) = ([0; 3], [3; 3]);
-        let mut err = 0f32;
+        let backwards = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
+        let (mut enter, mut exit) = ([0; 3], [0; 3]);
         for k in 0..3 {
-            if iv[k] < 0.0 {
-                (enter[k], exit[k]) = (3 + k, k);
-            } else {
-                (enter[k], exit[k]) = (k, 3 + k);
-            }
-            let e = (o[k] * iv[k]).abs();
-            if e.is_finite() {
-                err = err.max(e);
-            }
+            let b = backwards >> k & 1;
+            (enter[k], exit[k]) = (k + 3 * b, k + 3 - 3 * b);
         }
-        let offset = fused_offsets(ray.origin, inv);
+        let (offset, iv) = (fused_offsets(ray.origin, inv.into()), inv.to_array());
         Walker {
             offset: [l.splat(offset[0]), l.splat(offset[1]), l.splat(offset[2])],
             inv_direction: [l.splat(iv[0]), l.splat(iv[1]), l.splat(iv[2])],
