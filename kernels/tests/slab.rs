@@ -275,12 +275,7 @@ impl LaneTask for BoxesVsSingle {
         for (ray, boxes) in self.rays.iter().zip(self.boxes.chunks_exact(L::WIDTH)) {
             let inv = ray.direction.recip();
             let (o, iv) = (ray.origin.to_array(), inv.to_array());
-            let row = |f: &dyn Fn(&Aabb) -> f32| l.load(&boxes.iter().map(f).collect::<Vec<_>>());
-            let (mut enter, mut exit) = ([l.splat(0.0); 3], [l.splat(0.0); 3]);
-            for k in 0..3 {
-                let (lo, hi) = (row(&|b| b.min[k]), row(&|b| b.max[k]));
-                (enter[k], exit[k]) = if iv[k] < 0.0 { (hi, lo) } else { (lo, hi) };
-            }
+            let (enter, exit) = planes_by_sign(l, boxes, iv);
             let (near, far) = clip_planes(
                 &o.map(|x| l.splat(x)),
                 &iv.map(|x| l.splat(x)),
@@ -299,6 +294,18 @@ impl LaneTask for BoxesVsSingle {
         }
         (failures, entered)
     }
+}
+
+/// The planes of `boxes` (one a lane) a ray with reciprocal direction `iv` enters and leaves
+/// them by: `min` where `iv >= 0` (`+0` included), `max` where it is negative.
+fn planes_by_sign<L: Lanes>(l: L, boxes: &[Aabb], iv: [f32; 3]) -> ([L::F32; 3], [L::F32; 3]) {
+    let row = |f: &dyn Fn(&Aabb) -> f32| l.load(&boxes.iter().map(f).collect::<Vec<_>>());
+    let (mut enter, mut exit) = ([l.splat(0.0); 3], [l.splat(0.0); 3]);
+    for k in 0..3 {
+        let (lo, hi) = (row(&|b| b.min[k]), row(&|b| b.max[k]));
+        (enter[k], exit[k]) = if iv[k] < 0.0 { (hi, lo) } else { (lo, hi) };
+    }
+    (enter, exit)
 }
 
 #[test]
@@ -359,12 +366,7 @@ impl LaneTask for FusedHoldsExact {
         for (ray, boxes) in self.rays.iter().zip(self.boxes.chunks_exact(L::WIDTH)) {
             let inv = ray.direction.recip();
             let iv = inv.to_array();
-            let row = |f: &dyn Fn(&Aabb) -> f32| l.load(&boxes.iter().map(f).collect::<Vec<_>>());
-            let (mut enter, mut exit) = ([l.splat(0.0); 3], [l.splat(0.0); 3]);
-            for k in 0..3 {
-                let (lo, hi) = (row(&|b| b.min[k]), row(&|b| b.max[k]));
-                (enter[k], exit[k]) = if iv[k] < 0.0 { (hi, lo) } else { (lo, hi) };
-            }
+            let (enter, exit) = planes_by_sign(l, boxes, iv);
             let (near, far) = clip_planes_fused(
                 &fused_offsets(ray.origin, inv).map(|x| l.splat(x)),
                 &iv.map(|x| l.splat(x)),

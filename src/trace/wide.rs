@@ -170,7 +170,9 @@ impl<L: Lanes> Walker<L> {
     fn new(l: L, ray: &Ray) -> Self {
         debug_assert!(L::WIDTH <= WIDE);
         let inv = Vec3A::from(ray.direction).recip();
-        let size = (Vec3A::from(ray.origin) * inv).abs();
+        let offset = fused_offsets(ray.origin, inv.into());
+        // `|o·inv|` where finite: the fused offsets are `−o·inv` there, NaN or infinite elsewhere.
+        let size = Vec3A::from_array(offset).abs();
         let err = Vec3A::select(size.is_finite_mask(), size, Vec3A::ZERO).max_element();
         // The planes a ray enters by: `min` unless the reciprocal is negative (`−0` included).
         let backwards = inv.cmplt(Vec3A::ZERO).bitmask() as usize;
@@ -179,7 +181,7 @@ impl<L: Lanes> Walker<L> {
             let b = backwards >> k & 1;
             (enter[k], exit[k]) = (k + 3 * b, k + 3 - 3 * b);
         }
-        let (offset, iv) = (fused_offsets(ray.origin, inv.into()), inv.to_array());
+        let iv = inv.to_array();
         Walker {
             offset: [l.splat(offset[0]), l.splat(offset[1]), l.splat(offset[2])],
             inv_direction: [l.splat(iv[0]), l.splat(iv[1]), l.splat(iv[2])],

@@ -55,9 +55,9 @@ impl Isa {
             Isa::Scalar | Isa::Portable => true,
             #[cfg(target_arch = "x86_64")]
             Isa::Sse => std::is_x86_feature_detected!("sse4.1"),
-            #[cfg(target_arch = "x86_64")]
             // The bit instructions came with AVX2 on every x86 CPU that has it (Haswell,
             // Excavator); the AVX2 entry point uses them for its mask and counter arithmetic.
+            #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => {
                 std::is_x86_feature_detected!("avx2")
                     && std::is_x86_feature_detected!("fma")
