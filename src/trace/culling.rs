@@ -4,7 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use kdbeam_kernels::beam::Stages;
-use kdbeam_kernels::{Isa, RayPacket};
+use kdbeam_kernels::{Aabb, Isa, RayPacket};
 
 use super::packet::{spread, MAX_BEAM_DIRECTION_SPREAD, MIN_BEAM_RAYS};
 use super::subspace::Subspace;
@@ -61,6 +61,10 @@ pub enum Frustum {
     /// [`Tracer::occluded_packet`]: crate::Tracer::occluded_packet
     Packet,
     /// Chosen per packet from how far apart its rays start and point (four of them compared):
+    /// - ray by ray, as below, where neighbouring rays reach the scene more than 0.55% of its
+    ///   largest extent apart (origins apart, or directions apart times the distance to the
+    ///   scene's centre): a mesh seen a few dozen pixels wide, such as an instance far from the
+    ///   camera, or a small image, where each ray of a tile has leaves of its own;
     /// - [`Frustum::Packet`] for coherent rays (origins within 1/1024 of the scene's extent of
     ///   each other and unit directions within 0.02, on every axis: a camera's tiles at 512²
     ///   and above). Such a packet builds its beam on every leaf visit, whatever
@@ -339,15 +343,17 @@ impl Culling {
         self.is_enabled() && matches!(self.frustum, Frustum::Packet | Frustum::Coherent)
     }
 
-    /// How the rays `active` of `packet` are traced, in a scene whose largest extent is
-    /// `scale`: [`Frustum::Coherent`] resolved as it documents; any other setting as a packet
-    /// with the setting as it is.
-    pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, scale: f32) -> PacketTrace {
+    /// How the rays `active` of `packet` are traced, in a scene of box `bounds`:
+    /// [`Frustum::Coherent`] resolved as it documents; any other setting as a packet with the
+    /// setting as it is.
+    pub(crate) fn for_packet(self, packet: &RayPacket, active: u64, bounds: &Aabb) -> PacketTrace {
         if self.frustum != Frustum::Coherent || !self.is_enabled() {
             return PacketTrace::Packet(self);
         }
-        let s = spread(packet, active, scale);
-        if s.is_coherent() {
+        let s = spread(packet, active, bounds);
+        if s.is_sparse((active & packet.full_mask()).count_ones()) {
+            PacketTrace::RayByRay
+        } else if s.is_coherent() {
             PacketTrace::Packet(Culling {
                 frustum: Frustum::Packet,
                 min_triangles: 1,
@@ -654,7 +660,8 @@ mod tests {
             let rays: Vec<Ray> = (0..n).map(|i| ray(i as f32 / n as f32)).collect();
             RayPacket::from_rays(&rays)
         };
-        let trace = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), 1.0);
+        let unit = Aabb::new(Vec3::splat(-0.5), Vec3::splat(0.5));
+        let trace = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), &unit);
         let resolve = |p: &RayPacket| match trace(p) {
             PacketTrace::Packet(c) => c,
             PacketTrace::RayByRay => panic!("{p:?} traced ray by ray"),
@@ -662,10 +669,16 @@ mod tests {
         // A camera's tile: one origin, directions within 0.02.
         let tile = packet(64, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
         assert_eq!(resolve(&tile).frustum, Frustum::Packet);
+        // The same tile on a scene 100 times farther away: its rays land apart, one by one.
+        let far = Aabb::new(Vec3::new(-0.5, -0.5, 99.5), Vec3::new(0.5, 0.5, 100.5));
+        assert_eq!(
+            Culling::AUTO.for_packet(&tile, tile.full_mask(), &far),
+            PacketTrace::RayByRay
+        );
         // A tile's shadow rays: origins apart, converging on the light.
         let light = Vec3::new(0.0, 0.0, 10.0);
         let shadow = |f: f32| {
-            let o = Vec3::new(f * 0.3, 0.0, 0.0);
+            let o = Vec3::new(f * 0.01, 0.0, 0.0);
             Ray::new(o, light - o)
         };
         let resolved = resolve(&packet(64, &shadow));
@@ -685,7 +698,7 @@ mod tests {
         // A setting that is not `Coherent` is traced as it is.
         let fixed = Culling::FULL;
         assert_eq!(
-            fixed.for_packet(&packet(64, &hemisphere), u64::MAX, 1.0),
+            fixed.for_packet(&packet(64, &hemisphere), u64::MAX, &unit),
             PacketTrace::Packet(fixed)
         );
     }

@@ -353,11 +353,10 @@ impl<'t> Tracer<'t> {
         }
     }
 
-    /// How the rays `active` of `packet` are traced ([`Culling::for_packet`], relative to the
-    /// tree's largest extent).
+    /// How the rays `active` of `packet` are traced ([`Culling::for_packet`] in the tree's
+    /// box).
     fn packet_trace(&self, packet: &RayPacket, active: u64) -> PacketTrace {
-        let scale = self.tree.bounds().extent().max_element();
-        self.culling.for_packet(packet, active, scale)
+        self.culling.for_packet(packet, active, &self.tree.bounds())
     }
 
     /// The packet query of call `q` in this tracer's tree.
