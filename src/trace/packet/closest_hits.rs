@@ -4,6 +4,7 @@ use kdbeam_kernels::beam::Survivors;
 use kdbeam_kernels::groups::{group_bits, lane_rays, take_group};
 use kdbeam_kernels::{HitPacket, LaneF32, LaneMask, Lanes, RayPacket};
 
+use super::dense::{is_scattered, DensePacket};
 use super::lane_test::LaneTest;
 use super::visit::{leaf_beam, LeafVisit, PacketVisitor, SurvivorBlocks};
 use super::{Column, PacketCounters};
@@ -74,31 +75,22 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
         let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.hits.t, counters);
         // `next` is called directly: a `for` loop goes through `&mut I`'s forwarding `next`,
         // which is only `#[inline]` and may stay out of the ISA's entry point.
-        #[allow(clippy::while_let_on_iterator)]
-        while let Some((first, survivors)) = blocks.next() {
-            let mut rest = visit.mask;
-            while rest != 0 {
-                let g = take_group::<L>(&mut rest);
-                let bits = group_bits::<L>(visit.mask, g);
-                let better = test_group::<L, T>(
-                    l,
-                    p,
-                    (g, bits),
-                    &visit.triangles,
-                    (first, survivors),
-                    self.hits,
-                );
-                self.has_hit |= u64::from(better) << (g * L::WIDTH);
-                let tested = survivors.mask.count_ones();
-                let mut lanes = bits;
-                while lanes != 0 {
-                    self.hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
-                    lanes &= lanes - 1;
-                }
-                #[cfg(feature = "stats")]
-                {
-                    counters.hits += u64::from(better.count_ones());
-                }
+        if is_scattered::<L>(visit.mask) {
+            let dense = DensePacket::gather(p, visit.mask);
+            let mut found = DenseHits::gather(&dense, self.hits);
+            let (rays, all) = (dense.rays(), dense.rays().full_mask());
+            #[allow(clippy::while_let_on_iterator)]
+            while let Some(block) = blocks.next() {
+                let tris = &visit.triangles;
+                test_groups::<L, T>(l, rays, all, tris, block, &mut found.hits, counters);
+            }
+            self.has_hit |= found.scatter(&dense, self.hits);
+        } else {
+            #[allow(clippy::while_let_on_iterator)]
+            while let Some(block) = blocks.next() {
+                let tris = &visit.triangles;
+                self.has_hit |=
+                    test_groups::<L, T>(l, p, visit.mask, tris, block, self.hits, counters);
             }
         }
         self.tests += blocks.finish(counters);
@@ -108,6 +100,76 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
     #[inline(always)]
     fn best_t(&self) -> &Column {
         &self.hits.t
+    }
+}
+
+/// Tests a block's survivors against every group of lanes that holds a ray of `mask`, keeping
+/// each ray's closest hit in `hits` and counting its tests; returns the rays whose hit improved.
+#[inline(always)]
+fn test_groups<L: Lanes, T: LaneTest<L>>(
+    l: L,
+    p: &RayPacket,
+    mask: u64,
+    leaf: &LeafTriangles<'_>,
+    (first, survivors): (usize, Survivors),
+    hits: &mut HitPacket,
+    counters: &mut PacketCounters,
+) -> u64 {
+    let mut improved = 0u64;
+    let mut rest = mask;
+    while rest != 0 {
+        let g = take_group::<L>(&mut rest);
+        let bits = group_bits::<L>(mask, g);
+        let better = test_group::<L, T>(l, p, (g, bits), leaf, (first, survivors), hits);
+        improved |= u64::from(better) << (g * L::WIDTH);
+        let tested = survivors.mask.count_ones();
+        let mut lanes = bits;
+        while lanes != 0 {
+            hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
+            lanes &= lanes - 1;
+        }
+        #[cfg(feature = "stats")]
+        {
+            counters.hits += u64::from(better.count_ones());
+        }
+    }
+    let _ = counters;
+    improved
+}
+
+/// A leaf visit's closest hits so far, moved with its rays to their lanes of a [`DensePacket`]
+/// and back.
+struct DenseHits {
+    hits: HitPacket,
+}
+
+impl DenseHits {
+    /// The hits of the rays of `dense` from `hits`, no tests counted yet.
+    #[inline(always)]
+    fn gather(dense: &DensePacket, hits: &HitPacket) -> Self {
+        let mut d = HitPacket::default();
+        for (k, &i) in dense.index().iter().enumerate() {
+            let i = usize::from(i);
+            (d.t[k], d.u[k], d.v[k]) = (hits.t[i], hits.u[i], hits.v[i]);
+            d.triangle[k] = hits.triangle[i];
+        }
+        DenseHits { hits: d }
+    }
+
+    /// Moves the hits back to their rays in `hits` and adds their tests; returns the rays that
+    /// have a hit.
+    #[inline(always)]
+    fn scatter(&self, dense: &DensePacket, hits: &mut HitPacket) -> u64 {
+        let d = &self.hits;
+        let mut has_hit = 0u64;
+        for (k, &i) in dense.index().iter().enumerate() {
+            let i = usize::from(i);
+            (hits.t[i], hits.u[i], hits.v[i]) = (d.t[k], d.u[k], d.v[k]);
+            hits.triangle[i] = d.triangle[k];
+            hits.tests[i] += d.tests[k];
+            has_hit |= u64::from(d.triangle[k] != u32::MAX) << i;
+        }
+        has_hit
     }
 }
 

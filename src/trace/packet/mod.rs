@@ -18,6 +18,7 @@ mod any_hits;
 mod closest_hits;
 mod coherence;
 mod counters;
+mod dense;
 mod interval;
 mod lane_test;
 mod octants;
