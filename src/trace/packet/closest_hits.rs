@@ -77,14 +77,14 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
         // which is only `#[inline]` and may stay out of the ISA's entry point.
         if is_scattered::<L>(visit.mask) {
             let dense = DensePacket::gather(p, visit.mask);
-            let mut found = DenseHits::gather(&dense, self.hits);
+            let mut found = dense.gather_hits(self.hits);
             let (rays, all) = (dense.rays(), dense.rays().full_mask());
             #[allow(clippy::while_let_on_iterator)]
             while let Some(block) = blocks.next() {
                 let tris = &visit.triangles;
-                test_groups::<L, T>(l, rays, all, tris, block, &mut found.hits, counters);
+                test_groups::<L, T>(l, rays, all, tris, block, &mut found, counters);
             }
-            self.has_hit |= found.scatter(&dense, self.hits);
+            self.has_hit |= dense.scatter_hits(&found, self.hits);
         } else {
             #[allow(clippy::while_let_on_iterator)]
             while let Some(block) = blocks.next() {
@@ -122,6 +122,8 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
         let bits = group_bits::<L>(mask, g);
         let better = test_group::<L, T>(l, p, (g, bits), leaf, (first, survivors), hits);
         improved |= u64::from(better) << (g * L::WIDTH);
+        // Counted here, not once above the loop: kept live across `test_group` it cost the
+        // AVX-512 packet paths up to a quarter of their speed (register pressure).
         let tested = survivors.mask.count_ones();
         let mut lanes = bits;
         while lanes != 0 {
@@ -135,42 +137,6 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
     }
     let _ = counters;
     improved
-}
-
-/// A leaf visit's closest hits so far, moved with its rays to their lanes of a [`DensePacket`]
-/// and back.
-struct DenseHits {
-    hits: HitPacket,
-}
-
-impl DenseHits {
-    /// The hits of the rays of `dense` from `hits`, no tests counted yet.
-    #[inline(always)]
-    fn gather(dense: &DensePacket, hits: &HitPacket) -> Self {
-        let mut d = HitPacket::default();
-        for (k, &i) in dense.index().iter().enumerate() {
-            let i = usize::from(i);
-            (d.t[k], d.u[k], d.v[k]) = (hits.t[i], hits.u[i], hits.v[i]);
-            d.triangle[k] = hits.triangle[i];
-        }
-        DenseHits { hits: d }
-    }
-
-    /// Moves the hits back to their rays in `hits` and adds their tests; returns the rays that
-    /// have a hit.
-    #[inline(always)]
-    fn scatter(&self, dense: &DensePacket, hits: &mut HitPacket) -> u64 {
-        let d = &self.hits;
-        let mut has_hit = 0u64;
-        for (k, &i) in dense.index().iter().enumerate() {
-            let i = usize::from(i);
-            (hits.t[i], hits.u[i], hits.v[i]) = (d.t[k], d.u[k], d.v[k]);
-            hits.triangle[i] = d.triangle[k];
-            hits.tests[i] += d.tests[k];
-            has_hit |= u64::from(d.triangle[k] != u32::MAX) << i;
-        }
-        has_hit
-    }
 }
 
 /// Tests the triangles `first + i` for each bit `i` of `survivors.mask` (a block of

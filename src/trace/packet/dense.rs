@@ -3,7 +3,7 @@
 //! they fill as few groups as they can.
 
 use kdbeam_kernels::groups::take_group;
-use kdbeam_kernels::{Lanes, RayPacket, MAX_PACKET_RAYS};
+use kdbeam_kernels::{HitPacket, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 /// Do the rays of `mask` sit in more groups of `L::WIDTH` lanes than they would fill?
 ///
@@ -66,6 +66,34 @@ impl DensePacket {
     pub(super) fn index(&self) -> &[u8] {
         &self.index[..self.rays.len()]
     }
+
+    /// The closest hits so far of the gathered rays, from the packet's `hits`, in their lanes;
+    /// no tests counted yet.
+    #[inline(always)]
+    pub(super) fn gather_hits(&self, hits: &HitPacket) -> HitPacket {
+        let mut d = HitPacket::default();
+        for (k, &i) in self.index().iter().enumerate() {
+            let i = usize::from(i);
+            (d.t[k], d.u[k], d.v[k]) = (hits.t[i], hits.u[i], hits.v[i]);
+            d.triangle[k] = hits.triangle[i];
+        }
+        d
+    }
+
+    /// Moves the gathered rays' hits `d` back to their rays in `hits` and adds their tests;
+    /// returns the packet's rays that have a hit.
+    #[inline(always)]
+    pub(super) fn scatter_hits(&self, d: &HitPacket, hits: &mut HitPacket) -> u64 {
+        let mut has_hit = 0u64;
+        for (k, &i) in self.index().iter().enumerate() {
+            let i = usize::from(i);
+            (hits.t[i], hits.u[i], hits.v[i]) = (d.t[k], d.u[k], d.v[k]);
+            hits.triangle[i] = d.triangle[k];
+            hits.tests[i] += d.tests[k];
+            has_hit |= u64::from(d.triangle[k] != u32::MAX) << i;
+        }
+        has_hit
+    }
 }
 
 #[cfg(test)]
@@ -107,5 +135,18 @@ mod tests {
         for (k, &i) in dense.index().iter().enumerate() {
             assert_eq!(dense.rays().ray(k), p.ray(usize::from(i)));
         }
+        // Hits go to the gathered lanes and back to their rays, tests added, others untouched.
+        let mut hits = HitPacket::default();
+        hits.t[17] = 5.0;
+        hits.triangle[17] = 9;
+        hits.tests[3] = 2;
+        let mut found = dense.gather_hits(&hits);
+        assert_eq!((found.t[1], found.triangle[1], found.tests[0]), (5.0, 9, 0));
+        found.t[2] = 7.0;
+        found.triangle[2] = 4;
+        found.tests[0] = 3;
+        assert_eq!(dense.scatter_hits(&found, &mut hits), 1 << 17 | 1 << 39);
+        assert_eq!((hits.t[39], hits.triangle[39], hits.tests[3]), (7.0, 4, 5));
+        assert_eq!((hits.t[50], hits.triangle[50]), (f32::INFINITY, u32::MAX));
     }
 }
