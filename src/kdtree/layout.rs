@@ -39,6 +39,9 @@ pub(super) struct Layout {
     /// The pieces' nodes, records (empty record aside) and ids.
     #[cfg(feature = "parallel")]
     in_pieces: Counts,
+    /// The whole tree's ids when it was built in pieces, kept for the next build.
+    #[cfg(feature = "parallel")]
+    finished_ids: Vec<u32>,
 }
 
 /// Lengths of, or positions in, a layout's three arrays.
@@ -101,6 +104,8 @@ impl Default for Layout {
             pieces: Vec::new(),
             #[cfg(feature = "parallel")]
             in_pieces: Counts::default(),
+            #[cfg(feature = "parallel")]
+            finished_ids: Vec::new(),
         }
     }
 }
@@ -295,10 +300,12 @@ impl Layout {
     ) -> (u32, usize) {
         #[cfg(feature = "parallel")]
         if !self.pieces.is_empty() {
-            let mut ids = Vec::new();
+            let mut ids = std::mem::take(&mut self.finished_ids);
             self.copy_into(nodes, leaves, &mut ids);
             write_blocks(leaves, &ids, blocks, triangles);
-            return (self.max_depth, ids.len());
+            let refs = ids.len();
+            self.finished_ids = ids;
+            return (self.max_depth, refs);
         }
         std::mem::swap(nodes, &mut self.nodes);
         std::mem::swap(leaves, &mut self.records);

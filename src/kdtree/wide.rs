@@ -123,12 +123,14 @@ impl WideNodes {
 
     /// Replaces the nodes with those of the kd-tree `nodes` (root first, depth first) whose
     /// leaves are `leaves`: [`WideNodes::collapse`] of its subtrees' padded boxes, the leaves
-    /// of no triangle dropped.
-    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord]) {
+    /// of no triangle dropped. `boxes` is a buffer for the subtrees' boxes, kept by the caller
+    /// from one build to the next.
+    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
+        subtree_boxes(nodes, leaves, boxes);
         self.collapse(&KdSubtrees {
             nodes,
             leaves,
-            boxes: subtree_boxes(nodes, leaves),
+            boxes,
         });
     }
 
@@ -205,7 +207,7 @@ pub(crate) trait BinaryBoxes {
 struct KdSubtrees<'a> {
     nodes: &'a [Node],
     leaves: &'a [LeafRecord],
-    boxes: Vec<Aabb>,
+    boxes: &'a [Aabb],
 }
 
 impl BinaryBoxes for KdSubtrees<'_> {
@@ -225,10 +227,12 @@ impl BinaryBoxes for KdSubtrees<'_> {
     }
 }
 
-/// The padded box of every subtree's leaves, by node: children follow their parent in
-/// `nodes`, so one backward pass joins them.
-fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord]) -> Vec<Aabb> {
-    let mut boxes = vec![Aabb::EMPTY; nodes.len()];
+/// Replaces `boxes` with the padded box of every subtree's leaves, by node: children follow
+/// their parent in `nodes`, so one backward pass joins them.
+fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
+    boxes.clear();
+    boxes.reserve(nodes.len());
+    boxes.resize(nodes.len(), Aabb::EMPTY);
     for i in (0..nodes.len()).rev() {
         let node = nodes[i];
         boxes[i] = if node.is_leaf() {
@@ -243,7 +247,6 @@ fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord]) -> Vec<Aabb> {
             boxes[i + 1].union(boxes[node.above_child() as usize])
         };
     }
-    boxes
 }
 
 /// `b` grown by [`BOX_PAD`] of its extent and its coordinates' magnitude on every side.

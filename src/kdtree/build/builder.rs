@@ -9,6 +9,8 @@ use kdbeam_kernels::{Aabb, Isa, Triangle, TriangleBlock};
 use rayon::prelude::*;
 
 use super::recurse::{build_subtree, root_node};
+#[cfg(feature = "parallel")]
+use super::ScratchPool;
 use super::{Context, Scratch, MAX_TRIANGLES};
 use crate::kdtree::layout::Layout;
 use crate::kdtree::sah::{CostModel, COUNTED_SEARCH_MAX};
@@ -49,7 +51,7 @@ impl KdTree {
     /// ```
     pub fn build(mesh: &Mesh, params: &BuildParams) -> Result<KdTree> {
         let mut tree = KdTree::empty();
-        KdTreeBuilder::new().build_into(&mut tree, mesh, params)?;
+        KdTreeBuilder::one_off().build_into(&mut tree, mesh, params)?;
         Ok(tree)
     }
 
@@ -90,7 +92,12 @@ pub struct KdTreeBuilder {
     /// The mesh's triangles, by id.
     triangles: Vec<Triangle>,
     scratch: Scratch,
+    /// The scratches of subtrees built by other threads.
+    #[cfg(feature = "parallel")]
+    pool: ScratchPool,
     layout: Layout,
+    /// The kd-tree's subtree boxes, from which its wide nodes are made.
+    subtree_boxes: Vec<Aabb>,
     /// The ISA of the split search's SIMD lanes, resolved once, when the builder is made.
     dispatch: Dispatch,
     /// [`Context::count_max`].
@@ -109,9 +116,21 @@ impl KdTreeBuilder {
     #[must_use]
     pub fn new() -> Self {
         KdTreeBuilder {
+            #[cfg(feature = "parallel")]
+            pool: ScratchPool::new(true),
+            ..Self::one_off()
+        }
+    }
+
+    /// A builder for one build: it keeps no buffer of a subtree built by another thread.
+    fn one_off() -> Self {
+        KdTreeBuilder {
             triangles: Vec::new(),
             scratch: Scratch::default(),
+            #[cfg(feature = "parallel")]
+            pool: ScratchPool::new(false),
             layout: Layout::default(),
+            subtree_boxes: Vec::new(),
             dispatch: Dispatch::preferred(),
             count_max: COUNTED_SEARCH_MAX,
         }
@@ -177,7 +196,10 @@ impl KdTreeBuilder {
         let Self {
             triangles: mesh_triangles,
             scratch,
+            #[cfg(feature = "parallel")]
+            pool,
             layout,
+            subtree_boxes,
             dispatch,
             count_max,
         } = self;
@@ -197,6 +219,10 @@ impl KdTreeBuilder {
             dispatch: *dispatch,
             #[cfg(feature = "parallel")]
             parallel,
+            #[cfg(feature = "parallel")]
+            chunked_min: (2 * n).div_ceil(rayon::current_num_threads().max(1)),
+            #[cfg(feature = "parallel")]
+            pool,
         };
         layout.clear();
         layout.reserve_for(n);
@@ -210,7 +236,7 @@ impl KdTreeBuilder {
             &mut tree.blocks,
             mesh_triangles,
         );
-        tree.wide.build(&tree.nodes, &tree.leaves);
+        tree.wide.build(&tree.nodes, &tree.leaves, subtree_boxes);
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         tree.triangle_boxes = OnceLock::new();

@@ -86,6 +86,75 @@ struct Context<'a> {
     /// Whether to build children with `rayon::join` (not with a one-thread pool).
     #[cfg(feature = "parallel")]
     parallel: bool,
+    /// Nodes of at least this many references (and more than [`parallel::PARALLEL_NODE_MIN`])
+    /// split in parallel chunks: those of more than twice a thread's share of the root, above
+    /// which fewer subtrees than threads are being built. Below, each thread splits its own
+    /// nodes in one pass, and a chunked split's extra passes would only cost.
+    #[cfg(feature = "parallel")]
+    chunked_min: usize,
+    /// The buffers of subtrees built by other threads.
+    #[cfg(feature = "parallel")]
+    pool: &'a ScratchPool,
+}
+
+/// [`Scratch`]es of subtrees handed to other threads, returned when their subtree is built and
+/// taken by the next one, in this build and the builder's next: a new buffer's pages are
+/// faulted in at first touch, which costs as much as filling them.
+///
+/// Kept by size class (the bit length of the subtree's reference count), so that a subtree gets
+/// a buffer grown by one of its size class: buffers handed out regardless of size would each
+/// grow, build after build, to the largest subtree they ever served.
+///
+/// A one-off build ([`KdTree::build`](crate::KdTree::build)) keeps none: there the memory of a
+/// finished subtree's buffer is better handed back to the allocator, which gives it to the next
+/// subtree whatever its size, than held until the build ends.
+#[cfg(feature = "parallel")]
+#[derive(Default)]
+struct ScratchPool {
+    classes: std::sync::Mutex<Vec<Vec<Scratch>>>,
+    keep: bool,
+}
+
+#[cfg(feature = "parallel")]
+impl ScratchPool {
+    /// A pool that keeps the scratches returned to it when `keep`, else drops them.
+    fn new(keep: bool) -> Self {
+        ScratchPool {
+            keep,
+            ..ScratchPool::default()
+        }
+    }
+
+    /// The size class of a subtree of `n` references.
+    fn class(n: usize) -> usize {
+        (usize::BITS - n.leading_zeros()) as usize
+    }
+
+    /// A scratch of `n`'s size class from the pool, or a new one; its stack empty.
+    fn take(&self, n: usize) -> Scratch {
+        // A build that panicked while holding the lock left whole scratches: still usable.
+        let mut pool = (self.classes.lock()).unwrap_or_else(std::sync::PoisonError::into_inner);
+        let mut scratch = pool
+            .get_mut(Self::class(n))
+            .and_then(Vec::pop)
+            .unwrap_or_default();
+        scratch.top = 0;
+        scratch.open_cuts.clear();
+        scratch
+    }
+
+    /// Returns `scratch`, taken for `n` references, to the pool.
+    fn put(&self, scratch: Scratch, n: usize) {
+        if !self.keep {
+            return;
+        }
+        let mut pool = (self.classes.lock()).unwrap_or_else(std::sync::PoisonError::into_inner);
+        let class = Self::class(n);
+        if pool.len() <= class {
+            pool.resize_with(class + 1, Vec::new);
+        }
+        pool[class].push(scratch);
+    }
 }
 
 /// Per-thread buffers, reused by every node the thread builds.

@@ -4,10 +4,13 @@
 //! `rayon::join` on the children parallelises a tree below its top levels only: the root's
 //! binning and classification read every triangle on one thread while the others wait, and so,
 //! with more threads, do the levels below it. So nodes of more than [`PARALLEL_NODE_MIN`]
-//! references do their own work in chunks on every thread, each chunk's result put where the
-//! one-thread build puts it: the bins' counts are integers summed, the unions minima and
-//! maxima, and the children's references are written in the node's order, so the tree is the
-//! same with any number of threads.
+//! references bin in chunks on every thread, and those that also hold more than twice a
+//! thread's share of the root's references (`Context::chunked_min`) split in chunks: below
+//! that, every thread is busy with a subtree of its own, and the chunked split's extra passes
+//! (counting, then writing, then moving the below child's references into place) only cost.
+//! Each chunk's result is put where the one-thread build puts it: the bins' counts are
+//! integers summed, the unions minima and maxima, and the children's references are written in
+//! the node's order, so the tree is the same with any number of threads.
 
 use bytemuck::Zeroable;
 use kdbeam_kernels::{Aabb, Triangle};
@@ -68,19 +71,20 @@ struct ChunkSides {
 }
 
 /// [`split_boxes`](super::classify::split_boxes) in parallel chunks, but for where the above
-/// child's references go: into a new stack, returned, for the thread that builds it (its
-/// references are `0..` there). The below child's take the node's place on `scratch.refs`,
-/// and both hold the same references in the same order as with `split_boxes`.
+/// child's references go: onto the stack `above` (emptied first), for the thread that builds
+/// it (its references are `0..` there). The below child's take the node's place on
+/// `scratch.refs`, and both hold the same references in the same order as with `split_boxes`.
 pub(super) fn split_boxes_apart(
     context: &Context<'_>,
     node: &BoxNode,
     split: &Split,
     scratch: &mut Scratch,
-) -> (BoxNode, BoxNode, Vec<Ref>) {
+    above: &mut Vec<Ref>,
+) -> (BoxNode, BoxNode) {
     match split.axis {
-        0 => split_apart_on::<0>(context, node, split, scratch),
-        1 => split_apart_on::<1>(context, node, split, scratch),
-        _ => split_apart_on::<2>(context, node, split, scratch),
+        0 => split_apart_on::<0>(context, node, split, scratch, above),
+        1 => split_apart_on::<1>(context, node, split, scratch, above),
+        _ => split_apart_on::<2>(context, node, split, scratch, above),
     }
 }
 
@@ -90,7 +94,8 @@ fn split_apart_on<const AXIS: usize>(
     node: &BoxNode,
     split: &Split,
     scratch: &mut Scratch,
-) -> (BoxNode, BoxNode, Vec<Ref>) {
+    above: &mut Vec<Ref>,
+) -> (BoxNode, BoxNode) {
     let p = unkey(split.pos_key);
     let (mut below_cell, mut above_cell) = (node.cell, node.cell);
     below_cell.max[AXIS] = p;
@@ -99,10 +104,9 @@ fn split_apart_on<const AXIS: usize>(
         let (lo, hi) = (r.lo()[AXIS], r.hi()[AXIS]);
         sides_of(lo, hi, p, split.planar_below)
     };
-    let refs = &scratch.refs[node.refs.clone()];
     // First the counts, so that each chunk knows where its references go, and the clipped
     // parts of the straddling triangles (few, and the costly part to compute twice).
-    let chunks: Vec<ChunkSides> = refs
+    let chunks: Vec<ChunkSides> = scratch.refs[node.refs.clone()]
         .par_chunks(CHUNK)
         .map(|chunk| {
             let mut sides = ChunkSides::default();
@@ -124,15 +128,26 @@ fn split_apart_on<const AXIS: usize>(
             sides
         })
         .collect();
-    let mut below = zeroed_refs(chunks.iter().map(|c| c.below + c.clipped_below.len()).sum());
+    let below_len = chunks.iter().map(|c| c.below + c.clipped_below.len()).sum();
     let above_len = chunks.iter().map(|c| c.above + c.clipped_above.len()).sum();
-    let mut above = Vec::new();
-    reserve_stack(&mut above, STACK_PER_TRIANGLE * above_len);
+    // The below child's references are written above the stack's top, then moved to the
+    // node's place: no new array, whose pages would be faulted in afresh.
+    let top = scratch.top;
+    let stack = &mut scratch.refs;
+    if stack.len() < top + below_len {
+        reserve_stack(stack, top + below_len);
+        let more = top + below_len - stack.len();
+        stack.par_extend(rayon::iter::repeat_n(Ref::zeroed(), more));
+    }
+    above.clear();
+    reserve_stack(above, STACK_PER_TRIANGLE * above_len);
     above.par_extend(rayon::iter::repeat_n(Ref::zeroed(), above_len));
+    let (lower, upper) = stack.split_at_mut(top);
+    let (refs, below) = (&lower[node.refs.clone()], &mut upper[..below_len]);
     // As `split_boxes` orders them: the one-sided references in the node's order, then the
     // clipped ones in the order of their triangles' references.
-    let below_parts = chunk_destinations(&mut below, &chunks, |c| (c.below, &c.clipped_below));
-    let above_parts = chunk_destinations(&mut above, &chunks, |c| (c.above, &c.clipped_above));
+    let below_parts = chunk_destinations(below, &chunks, |c| (c.below, &c.clipped_below));
+    let above_parts = chunk_destinations(above, &chunks, |c| (c.above, &c.clipped_above));
     refs.par_chunks(CHUNK)
         .zip(chunks.par_iter())
         .zip(below_parts.into_par_iter().zip(above_parts))
@@ -159,31 +174,24 @@ fn split_apart_on<const AXIS: usize>(
     // The below child's references take the node's place (each reference has at most one
     // part below, so they fit).
     let first = node.refs.start;
-    scratch.refs[first..first + below.len()]
+    lower[first..first + below_len]
         .par_chunks_mut(CHUNK)
-        .zip(below.par_chunks(CHUNK))
+        .zip(upper[..below_len].par_chunks(CHUNK))
         .for_each(|(to, from)| to.copy_from_slice(from));
+    let below = &lower[first..first + below_len];
     // The children's unions only where they may be binned: a node's children are no larger.
     let binned = node.refs.len() > context.exact_max;
     let below_node = BoxNode {
-        refs: first..first + below.len(),
+        refs: first..first + below_len,
         cell: below_cell,
-        union: binned.then(|| union_in_parallel(&below)),
+        union: binned.then(|| union_in_parallel(below)),
     };
     let above_node = BoxNode {
-        refs: 0..above.len(),
+        refs: 0..above_len,
         cell: above_cell,
-        union: binned.then(|| union_in_parallel(&above)),
+        union: binned.then(|| union_in_parallel(above)),
     };
-    (below_node, above_node, above)
-}
-
-/// `len` zeroed references, written in parallel (a new array's pages are faulted in by the
-/// threads that write them).
-fn zeroed_refs(len: usize) -> Vec<Ref> {
-    let mut refs = Vec::with_capacity(len);
-    refs.par_extend(rayon::iter::repeat_n(Ref::zeroed(), len));
-    refs
+    (below_node, above_node)
 }
 
 /// Cuts `out` into each chunk's places: its one-sided references' run and its clipped

@@ -165,22 +165,25 @@ pub(super) fn build_children(
     #[cfg(feature = "parallel")]
     if context.parallel && node.refs.len() > PARALLEL_MIN_TRIANGLES {
         // The above child's references go to a stack of their own, for the other thread.
-        let (below, above, above_refs) = if node.refs.len() > PARALLEL_NODE_MIN {
-            split_boxes_apart(context, node, split, scratch)
+        let n = node.refs.len();
+        let mut above_scratch = context.pool.take(n);
+        let (below, above) = if n > PARALLEL_NODE_MIN && n >= context.chunked_min {
+            split_boxes_apart(context, node, split, scratch, &mut above_scratch.refs)
         } else {
             let (below, above) = split_boxes(context, node, split, scratch);
-            let above_refs = scratch.refs[above.refs.clone()].to_vec();
+            let stack = &mut above_scratch.refs;
+            stack.clear();
+            reserve_stack(stack, STACK_PER_TRIANGLE * above.refs.len());
+            stack.extend_from_slice(&scratch.refs[above.refs.clone()]);
+            // Popped: the below child's subtree may use their place.
+            scratch.top = above.refs.start;
             let above = BoxNode {
-                refs: 0..above_refs.len(),
+                refs: 0..stack.len(),
                 ..above
             };
-            (below, above, above_refs)
+            (below, above)
         };
-        let mut above_scratch = Scratch {
-            top: above_refs.len(),
-            refs: above_refs,
-            ..Scratch::default()
-        };
+        above_scratch.top = above.refs.end;
         let (mut below_out, mut above_out) = (Layout::default(), Layout::default());
         let (built_below, built_above) = rayon::join(
             || build_subtree(context, below, depth + 1, scratch, &mut below_out),
@@ -194,6 +197,7 @@ pub(super) fn build_children(
                 )
             },
         );
+        context.pool.put(above_scratch, n);
         built_below?;
         built_above?;
         let at = out.open_inner();

@@ -12,6 +12,9 @@ use crate::kdtree::refs::Ref;
 #[cfg(doc)]
 use kdbeam_kernels::split_planes::cheapest_plane;
 
+/// Tables [`BinCounts::of`] counts in, in turn.
+const LANES: usize = 4;
+
 /// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
 pub(crate) const BINS: usize = 32;
 const _: () = assert!(BINS.is_power_of_two(), "bin_index masks with BINS − 1");
@@ -61,18 +64,46 @@ impl BinCounts {
     };
 
     /// The counts of the boxes of `refs` in the bins across `union` (which holds them).
+    ///
+    /// Neighbouring references usually fall in the same bins (a node's references keep the
+    /// mesh's order), so one table would make each increment wait for the one before it
+    /// through memory; [`LANES`] tables, one per reference of each run of [`LANES`], summed at
+    /// the end, let those increments overlap.
     #[inline]
     pub fn of(refs: &[Ref], union: &Aabb) -> BinCounts {
-        let mut counts = BinCounts::ZERO;
+        let mut tables = [[[0u32; BINS]; 6]; LANES];
         let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit(union)));
         let last = Vec3A::splat((BINS - 1) as f32);
         // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
         let bin = |x: Vec3A| ((x - first) * scale).max(Vec3A::ZERO).min(last);
-        for r in refs {
+        let count = |table: &mut [[u32; BINS]; 6], r: &Ref| {
             let (lo, hi) = (truncate_to_i32(bin(r.lo())), truncate_to_i32(bin(r.hi())));
             for axis in 0..3 {
-                counts.starts[axis][bin_index(lo[axis])] += 1;
-                counts.ends[axis][bin_index(hi[axis])] += 1;
+                table[axis][bin_index(lo[axis])] += 1;
+                table[3 + axis][bin_index(hi[axis])] += 1;
+            }
+        };
+        let mut runs = refs.chunks_exact(LANES);
+        for run in &mut runs {
+            for (table, r) in tables.iter_mut().zip(run) {
+                count(table, r);
+            }
+        }
+        for (table, r) in tables.iter_mut().zip(runs.remainder()) {
+            count(table, r);
+        }
+        let mut counts = BinCounts::ZERO;
+        for table in &tables {
+            let (starts, ends) = table.split_at(3);
+            for (sum, part) in counts
+                .starts
+                .iter_mut()
+                .chain(&mut counts.ends)
+                .zip(starts.iter().chain(ends))
+            {
+                for (s, p) in sum.iter_mut().zip(part) {
+                    *s += p;
+                }
             }
         }
         counts
