@@ -77,7 +77,9 @@ impl KdTree {
 /// `KdTreeBuilder`, into the previous frame's tree ([`KdTreeBuilder::rebuild`]), reuses the
 /// memory of both instead of asking the system for fresh pages: the trees are the same as
 /// [`KdTree::build`]'s, bit for bit. The builder holds its buffers (about 80 bytes per
-/// triangle reference of the largest tree it built) until it is dropped.
+/// triangle reference of the largest tree it built, and, on several threads, the stacks of the
+/// subtrees that other threads built, which [`KdTree::build`] frees as it goes) until it is
+/// dropped.
 ///
 /// ```
 /// use kdbeam::{BuildParams, KdTree, KdTreeBuilder, Mesh};

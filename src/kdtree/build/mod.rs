@@ -132,7 +132,7 @@ impl ScratchPool {
 
     /// A scratch of `n`'s size class from the pool, or a new one; its stack empty.
     fn take(&self, n: usize) -> Scratch {
-        // A build that panicked while holding the lock left whole scratches: still usable.
+        // Nothing panics while the lock is held; were it poisoned, its scratches are whole.
         let mut pool = (self.classes.lock()).unwrap_or_else(std::sync::PoisonError::into_inner);
         let mut scratch = pool
             .get_mut(Self::class(n))

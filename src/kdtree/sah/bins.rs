@@ -13,7 +13,7 @@ use crate::kdtree::refs::Ref;
 use kdbeam_kernels::split_planes::cheapest_plane;
 
 /// Tables [`BinCounts::of`] counts in, in turn.
-const LANES: usize = 4;
+const TABLES: usize = 4;
 
 /// Planes per axis of the binned search: [`BINS`] − 1 bin boundaries.
 pub(crate) const BINS: usize = 32;
@@ -67,11 +67,11 @@ impl BinCounts {
     ///
     /// Neighbouring references usually fall in the same bins (a node's references keep the
     /// mesh's order), so one table would make each increment wait for the one before it
-    /// through memory; [`LANES`] tables, one per reference of each run of [`LANES`], summed at
+    /// through memory; [`TABLES`] tables, one per reference of each run of [`TABLES`], summed at
     /// the end, let those increments overlap.
     #[inline]
     pub fn of(refs: &[Ref], union: &Aabb) -> BinCounts {
-        let mut tables = [[[0u32; BINS]; 6]; LANES];
+        let mut tables = [[[0u32; BINS]; 6]; TABLES];
         let (first, scale) = (Vec3A::from(union.min), Vec3A::from(per_unit(union)));
         let last = Vec3A::splat((BINS - 1) as f32);
         // Three axes at once; `max` first takes NaN (0 · ∞ on a flat axis) to bin 0.
@@ -83,7 +83,7 @@ impl BinCounts {
                 table[3 + axis][bin_index(hi[axis])] += 1;
             }
         };
-        let mut runs = refs.chunks_exact(LANES);
+        let mut runs = refs.chunks_exact(TABLES);
         for run in &mut runs {
             for (table, r) in tables.iter_mut().zip(run) {
                 count(table, r);
