@@ -73,6 +73,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
             counters,
         );
         let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.hits.t, counters);
+        let culled = blocks.culls();
         // `next` is called directly: a `for` loop goes through `&mut I`'s forwarding `next`,
         // which is only `#[inline]` and may stay out of the ISA's entry point.
         if is_scattered::<L>(visit.mask) {
@@ -80,15 +81,17 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
             let mut found = dense.gather_hits(self.hits);
             let (rays, all) = (dense.rays(), dense.rays().full_mask());
             #[allow(clippy::while_let_on_iterator)]
-            while let Some(block) = blocks.next() {
+            while let Some((first, survivors)) = blocks.next() {
                 let tris = &visit.triangles;
+                let block = (first, survivors, culled);
                 test_groups::<L, T>(l, rays, all, tris, block, &mut found, counters);
             }
             self.has_hit |= dense.scatter_hits(&found, self.hits);
         } else {
             #[allow(clippy::while_let_on_iterator)]
-            while let Some(block) = blocks.next() {
+            while let Some((first, survivors)) = blocks.next() {
                 let tris = &visit.triangles;
+                let block = (first, survivors, culled);
                 self.has_hit |=
                     test_groups::<L, T>(l, p, visit.mask, tris, block, self.hits, counters);
             }
@@ -105,13 +108,14 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for ClosestHits<'_, T> {
 
 /// Tests a block's survivors against every group of lanes that holds a ray of `mask`, keeping
 /// each ray's closest hit in `hits` and counting its tests; returns the rays whose hit improved.
+/// `culled`: a culling stage chose the survivors.
 #[inline(always)]
 fn test_groups<L: Lanes, T: LaneTest<L>>(
     l: L,
     p: &RayPacket,
     mask: u64,
     leaf: &LeafTriangles<'_>,
-    (first, survivors): (usize, Survivors),
+    (first, survivors, culled): (usize, Survivors, bool),
     hits: &mut HitPacket,
     counters: &mut PacketCounters,
 ) -> u64 {
@@ -120,15 +124,17 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
     while rest != 0 {
         let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        let better = test_group::<L, T>(l, p, (g, bits), leaf, (first, survivors), hits);
+        let block = (first, survivors, culled);
+        let better = test_group::<L, T>(l, p, (g, bits), leaf, block, hits);
         improved |= u64::from(better) << (g * L::WIDTH);
         // Counted here, not once above the loop: kept live across `test_group` it cost the
         // AVX-512 packet paths up to a quarter of their speed (register pressure).
         let tested = survivors.mask.count_ones();
-        let mut lanes = bits;
-        while lanes != 0 {
-            hits.tests[g * L::WIDTH + lanes.trailing_zeros() as usize] += tested;
-            lanes &= lanes - 1;
+        // Every lane of the group, masked: a loop over the set lanes ended in a mispredicted
+        // branch as often as not.
+        let b = g * L::WIDTH;
+        for (i, count) in hits.tests[b..b + L::WIDTH].iter_mut().enumerate() {
+            *count += tested & 0u32.wrapping_sub(bits >> i & 1);
         }
         #[cfg(feature = "stats")]
         {
@@ -142,13 +148,17 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
 /// Tests the triangles `first + i` for each bit `i` of `survivors.mask` (a block of
 /// [`SurvivorBlocks`]) against the lanes `bits` of group `g`, keeping each lane's closest hit
 /// with [`kdbeam_kernels::Hit::is_beaten_by`]'s tie rule. Returns the lanes whose hit improved.
+///
+/// Unculled, most triangles miss every lane, and a branch past them is predicted; the
+/// survivors of a culling stage (`culled`) hit some lane about as often as not, so there every
+/// test's hits are merged without a branch.
 #[inline(always)]
 fn test_group<L: Lanes, T: LaneTest<L>>(
     l: L,
     p: &RayPacket,
     (g, bits): (usize, u32),
     leaf: &LeafTriangles<'_>,
-    (first, survivors): (usize, Survivors),
+    (first, survivors, culled): (usize, Survivors, bool),
     hits: &mut HitPacket,
 ) -> u32 {
     let b = g * L::WIDTH;
@@ -169,7 +179,7 @@ fn test_group<L: Lanes, T: LaneTest<L>>(
         let inside = survivors.inside >> j & 1 != 0;
         let h = T::test(l, &prepared, &rays, leaf, i, (tmin, best_t), inside);
         let found = h.mask & act;
-        if found.none() {
+        if !culled && found.none() {
             continue;
         }
         let id = leaf.id(i);

@@ -220,6 +220,12 @@ impl<'v, L: Lanes> SurvivorBlocks<'v, L> {
         }
     }
 
+    /// Whether a beam or the rays' box culls the blocks.
+    #[inline(always)]
+    pub(super) fn culls(&self) -> bool {
+        self.beam.is_some() || self.raybox.is_some()
+    }
+
     /// Adds what was culled to `counters` and returns the tests performed.
     #[inline(always)]
     pub(super) fn finish(self, counters: &mut PacketCounters) -> u64 {
