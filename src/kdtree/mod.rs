@@ -45,10 +45,10 @@ use crate::{Error, Result};
 pub struct BuildParams {
     /// Cost of one ray–triangle test over the cost of one traversal step (`Ci / Ct`), the
     /// horizontal axis of Reshetov's Figs. 7–9. Larger values split more: bigger trees, smaller
-    /// leaves. Must be finite and > 0. The default, 0.1, serves primary and shadow rays on one
+    /// leaves. Must be finite and > 0. The default, 0.05, serves primary and shadow rays on one
     /// tree: culled packets want fewer nodes than the unculled SAH optimum (0.03 is fastest for
-    /// camera rays on the bunny and the dragon), single rays more; docs/benchmarks.md
-    /// ("Defaults") has what it costs each kind of ray on each shared scene.
+    /// camera rays on the bunny and the dragon, 0.1–1.5 on sponza), single rays more;
+    /// docs/benchmarks.md ("Defaults") has what it costs each kind of ray on each shared scene.
     pub ci_over_ct: f32,
     /// Fraction by which the SAH cost of a split is reduced when one side is empty, in `[0, 1)`.
     pub empty_bonus: f32,
@@ -69,7 +69,7 @@ pub struct BuildParams {
 impl Default for BuildParams {
     fn default() -> Self {
         BuildParams {
-            ci_over_ct: 0.1,
+            ci_over_ct: 0.05,
             empty_bonus: 0.5,
             max_depth: None,
             leaf_size: 1,
