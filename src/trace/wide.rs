@@ -290,13 +290,14 @@ fn nearest_first(entered: u32, near: &[f32; WIDE], mut push: impl FnMut(usize)) 
         return entered.trailing_zeros() as usize;
     }
     if rest & (rest - 1) == 0 {
-        // Two children, the most common case after one: ordered by a select, where the
-        // insertion below branches on the comparison, mispredicted about half the time.
+        // Two children, ordered by a select: the insertion below branches on a comparison
+        // that the walk often mispredicts. Ties go as the insertion takes them (the later
+        // child first).
         let (a, b) = (
             entered.trailing_zeros() as usize,
             rest.trailing_zeros() as usize,
         );
-        let b_first = near[b] < near[a];
+        let b_first = near[b] <= near[a];
         push(if b_first { a } else { b });
         return if b_first { b } else { a };
     }
