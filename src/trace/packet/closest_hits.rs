@@ -115,7 +115,7 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
     p: &RayPacket,
     mask: u64,
     leaf: &LeafTriangles<'_>,
-    (first, survivors, culled): (usize, Survivors, bool),
+    block @ (_, survivors, _): (usize, Survivors, bool),
     hits: &mut HitPacket,
     counters: &mut PacketCounters,
 ) -> u64 {
@@ -124,14 +124,13 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
     while rest != 0 {
         let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        let block = (first, survivors, culled);
         let better = test_group::<L, T>(l, p, (g, bits), leaf, block, hits);
         improved |= u64::from(better) << (g * L::WIDTH);
         // Counted here, not once above the loop: kept live across `test_group` it cost the
         // AVX-512 packet paths up to a quarter of their speed (register pressure).
         let tested = survivors.mask.count_ones();
-        // Every lane of the group, masked: a loop over the set lanes ended in a mispredicted
-        // branch as often as not.
+        // Every lane of the group, masked: a loop over the set lanes ends on a branch that
+        // depends on how many there are.
         let b = g * L::WIDTH;
         for (i, count) in hits.tests[b..b + L::WIDTH].iter_mut().enumerate() {
             *count += tested & 0u32.wrapping_sub(bits >> i & 1);
@@ -150,7 +149,7 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
 /// with [`kdbeam_kernels::Hit::is_beaten_by`]'s tie rule. Returns the lanes whose hit improved.
 ///
 /// Unculled, most triangles miss every lane, and a branch past them is predicted; the
-/// survivors of a culling stage (`culled`) hit some lane about as often as not, so there every
+/// survivors of a culling stage (`culled`) hit some lane too often for that, so there every
 /// test's hits are merged without a branch.
 #[inline(always)]
 fn test_group<L: Lanes, T: LaneTest<L>>(
