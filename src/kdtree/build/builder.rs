@@ -13,6 +13,7 @@ use super::recurse::{build_subtree, root_node};
 use super::ScratchPool;
 use super::{Context, Scratch, MAX_TRIANGLES};
 use crate::kdtree::layout::Layout;
+use crate::kdtree::node::mark_empty_children;
 use crate::kdtree::sah::{CostModel, COUNTED_SEARCH_MAX};
 use crate::kdtree::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
@@ -36,7 +37,7 @@ impl KdTree {
     ///
     /// # Errors
     /// [`Error::InvalidParameter`] if `params` fails [`BuildParams::validate`] or the tree would
-    /// outgrow its 30-bit node indices; [`Error::MalformedMesh`] for more than 2³⁰ triangles.
+    /// outgrow its 28-bit node indices; [`Error::MalformedMesh`] for more than 2³⁰ triangles.
     ///
     /// ```
     /// let mesh = kdbeam::Mesh::from_soup(&[
@@ -238,6 +239,7 @@ impl KdTreeBuilder {
             &mut tree.blocks,
             mesh_triangles,
         );
+        mark_empty_children(&mut tree.nodes, &tree.leaves);
         tree.wide.build(&tree.nodes, &tree.leaves, subtree_boxes);
         tree.bounds = bounds;
         tree.mesh_triangles = n;

@@ -33,7 +33,7 @@ pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 /// and the far child when `lo − slack <= t_exit` (from `max(t_enter, lo − slack)`): a superset
 /// of the cells [`traverse_octant`] would visit with any of the rays, with bounds that contain
 /// theirs. A NaN product (an origin in the plane, a direction parallel to it) keeps both
-/// children whole, as the per-ray traversal does. A cell is skipped once its `t_enter` lies
+/// children whole, as the per-ray traversal does. An empty leaf is never entered, and a cell is skipped once its `t_enter` lies
 /// after every ray's best hit. In a leaf, the rays are those whose segment up to their best hit
 /// meets the leaf's tight box ([`rays_in_box`]: one slab test per group of lanes), which may
 /// include rays that do not cross the leaf's cell: such a ray can only find real hits of its
@@ -141,12 +141,20 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
             let slack =
                 (lo.abs().max(hi.abs()).min(f32::MAX) + err[a]).min(f32::MAX) * INTERVAL_EPS;
             let (near_exit, far_enter) = ((hi + slack).min(t_exit), (lo - slack).max(t_enter));
-            let (near, far) = if octant >> a & 1 != 0 {
-                (node.above_child(), node_index + 1)
+            let (below_empty, above_empty) = node.empty_children();
+            let ((near, near_empty), (far, far_empty)) = if octant >> a & 1 != 0 {
+                (
+                    (node.above_child(), above_empty),
+                    (node_index + 1, below_empty),
+                )
             } else {
-                (node_index + 1, node.above_child())
+                (
+                    (node_index + 1, below_empty),
+                    (node.above_child(), above_empty),
+                )
             };
-            let (to_near, to_far) = (t_enter <= near_exit, far_enter <= t_exit);
+            let to_near = (t_enter <= near_exit) & !near_empty;
+            let to_far = (far_enter <= t_exit) & !far_empty;
             if to_near {
                 if to_far {
                     stack[top] = (far, far_enter, t_exit);

@@ -85,10 +85,17 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             let axis = node.axis();
             let split = l.splat(node.split());
             let eps = l.splat(INTERVAL_EPS);
-            let (near, far) = if octant >> axis & 1 != 0 {
-                (node.above_child(), node_index + 1)
+            let (below_empty, above_empty) = node.empty_children();
+            let ((near, near_empty), (far, far_empty)) = if octant >> axis & 1 != 0 {
+                (
+                    (node.above_child(), above_empty),
+                    (node_index + 1, below_empty),
+                )
             } else {
-                (node_index + 1, node.above_child())
+                (
+                    (node_index + 1, below_empty),
+                    (node.above_child(), above_empty),
+                )
             };
             let (mut near_mask, mut far_mask) = (0u64, 0u64);
             let mut rest = mask;
@@ -108,6 +115,9 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 near_mask |= u64::from((act & tn.le(ne)).bits()) << b;
                 far_mask |= u64::from((act & fe.le(tf)).bits()) << b;
             }
+            // An empty leaf has nothing to test: no ray steps into it.
+            near_mask &= u64::from(!near_empty).wrapping_neg();
+            far_mask &= u64::from(!far_empty).wrapping_neg();
             if near_mask != 0 {
                 if far_mask != 0 {
                     stack_node[top] = far;
