@@ -224,6 +224,20 @@ fn walk(tree: &KdTree, cap: usize) -> Result<Walk, String> {
             ));
         }
         let (above_ids, end) = visit(tree, w, cap, end, above, depth + 1)?;
+        let is_empty_leaf = |child: usize| {
+            let child = tree.nodes()[child];
+            child.is_leaf() && tree.leaves()[child.leaf_record() as usize].count == 0
+        };
+        let marked = (
+            is_empty_leaf(index + 1),
+            is_empty_leaf(node.above_child() as usize),
+        );
+        if node.empty_children() != marked {
+            return Err(format!(
+                "node {index}: children marked empty {:?}, but they are {marked:?}",
+                node.empty_children()
+            ));
+        }
         ids.extend(above_ids);
         while ids.len() > cap {
             ids.pop_last();
