@@ -33,7 +33,8 @@ pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 /// and the far child when `lo − slack <= t_exit` (from `max(t_enter, lo − slack)`): a superset
 /// of the cells [`traverse_octant`] would visit with any of the rays, with bounds that contain
 /// theirs. A NaN product (an origin in the plane, a direction parallel to it) keeps both
-/// children whole, as the per-ray traversal does. An empty leaf is never entered, and a cell is skipped once its `t_enter` lies
+/// children whole, as the per-ray traversal does. A child its parent marks as an empty leaf is
+/// never entered (it has nothing to test), and a cell is skipped once its `t_enter` lies
 /// after every ray's best hit. In a leaf, the rays are those whose segment up to their best hit
 /// meets the leaf's tight box ([`rays_in_box`]: one slab test per group of lanes), which may
 /// include rays that do not cross the leaf's cell: such a ray can only find real hits of its
