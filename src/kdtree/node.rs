@@ -99,6 +99,21 @@ impl Node {
         (self.word & BELOW_EMPTY != 0, self.word & ABOVE_EMPTY != 0)
     }
 
+    /// An inner node's children, nearer first for rays whose direction on its axis is negative
+    /// (`above_first`) or not: each as its index (this node being `index`) and whether it is
+    /// marked as an empty leaf ([`Node::empty_children`]).
+    #[inline(always)]
+    #[must_use]
+    pub fn children_in_order(self, index: u32, above_first: bool) -> [(u32, bool); 2] {
+        let (below_empty, above_empty) = self.empty_children();
+        let (below, above) = ((index + 1, below_empty), (self.above_child(), above_empty));
+        if above_first {
+            [above, below]
+        } else {
+            [below, above]
+        }
+    }
+
     /// The leaf record index of a leaf.
     #[inline(always)]
     #[must_use]
@@ -144,6 +159,14 @@ mod tests {
                 (2, -1.5, MAX_NODE_INDEX)
             );
             assert_eq!(m.with_empty_children(false, false), n);
+            assert_eq!(
+                m.children_in_order(7, true),
+                [(MAX_NODE_INDEX, above), (8, below)]
+            );
+            assert_eq!(
+                m.children_in_order(7, false),
+                [(8, below), (MAX_NODE_INDEX, above)]
+            );
         }
         let l = Node::leaf(MAX_NODE_INDEX);
         assert!(l.is_leaf());

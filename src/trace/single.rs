@@ -147,11 +147,9 @@ pub(crate) fn traverse<V: LeafVisitor>(tree: &KdTree, ray: &Ray, visitor: &mut V
                 let axis = node.axis();
                 let t_split = (node.split() - ray.origin[axis]) * inv[axis];
                 let err = LaneF32::min((ray.origin[axis] * inv[axis]).abs(), f32::MAX);
-                let (near, far) = if ray.direction[axis].is_sign_negative() {
-                    (node.above_child(), node_index + 1)
-                } else {
-                    (node_index + 1, node.above_child())
-                };
+                // The reference steps into empty leaves too: it ignores the marks.
+                let [(near, _), (far, _)] =
+                    node.children_in_order(node_index, ray.direction[axis].is_sign_negative());
                 let (near_exit, far_enter) =
                     split_intervals(t_split, t_enter, t_exit, err, INTERVAL_EPS, f32::MAX);
                 match (t_enter <= near_exit, far_enter <= t_exit) {

@@ -142,18 +142,8 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
             let slack =
                 (lo.abs().max(hi.abs()).min(f32::MAX) + err[a]).min(f32::MAX) * INTERVAL_EPS;
             let (near_exit, far_enter) = ((hi + slack).min(t_exit), (lo - slack).max(t_enter));
-            let (below_empty, above_empty) = node.empty_children();
-            let ((near, near_empty), (far, far_empty)) = if octant >> a & 1 != 0 {
-                (
-                    (node.above_child(), above_empty),
-                    (node_index + 1, below_empty),
-                )
-            } else {
-                (
-                    (node_index + 1, below_empty),
-                    (node.above_child(), above_empty),
-                )
-            };
+            let [(near, near_empty), (far, far_empty)] =
+                node.children_in_order(node_index, octant >> a & 1 != 0);
             let to_near = (t_enter <= near_exit) & !near_empty;
             let to_far = (far_enter <= t_exit) & !far_empty;
             if to_near {

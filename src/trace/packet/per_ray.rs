@@ -85,18 +85,8 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             let axis = node.axis();
             let split = l.splat(node.split());
             let eps = l.splat(INTERVAL_EPS);
-            let (below_empty, above_empty) = node.empty_children();
-            let ((near, near_empty), (far, far_empty)) = if octant >> axis & 1 != 0 {
-                (
-                    (node.above_child(), above_empty),
-                    (node_index + 1, below_empty),
-                )
-            } else {
-                (
-                    (node_index + 1, below_empty),
-                    (node.above_child(), above_empty),
-                )
-            };
+            let [(near, near_empty), (far, far_empty)] =
+                node.children_in_order(node_index, octant >> axis & 1 != 0);
             let (mut near_mask, mut far_mask) = (0u64, 0u64);
             let mut rest = mask;
             while rest != 0 {
