@@ -65,16 +65,18 @@ pub enum Frustum {
     ///   largest extent apart (origins apart, or directions apart times the distance to the
     ///   scene's centre): a mesh seen a few dozen pixels wide, such as an instance far from the
     ///   camera, or a small image, where each ray of a tile has leaves of its own;
-    /// - [`Frustum::Packet`] for coherent rays (origins within 1/1024 of the scene's extent of
-    ///   each other and unit directions within 0.02, on every axis: a camera's tiles at 512²
-    ///   and above). Such a packet builds its beam on every leaf visit, whatever
+    /// - [`Frustum::Packet`] for coherent rays: unit directions within 0.02 of each other on
+    ///   every axis, and origins within 1/1024 of the scene's extent (a camera's tiles at 512²
+    ///   and above) or a footprint within 2% of it (rays that start apart but run side by
+    ///   side, such as a small tile's shadow rays toward a distant light). Such a packet
+    ///   builds its beam on every leaf visit, whatever
     ///   [`Culling::min_triangles`] and [`Culling::min_rays`] say (they serve the per-ray
     ///   traversal): there a visit without one tests every triangle against every ray in the
     ///   leaf's box. Hits as [`Frustum::Packet`] documents;
     /// - [`Frustum::Adaptive`] for more than 16 active rays whose unit directions lie within
-    ///   0.25 of each other but that start apart (a tile's shadow rays, converging on the
-    ///   light): the one interval of the whole-packet traversal would bound their segments
-    ///   loosely;
+    ///   0.25 of each other but that are not coherent (shadow rays of a wide tile, or toward a
+    ///   light close by): the one interval of the whole-packet traversal would bound their
+    ///   segments loosely;
     /// - no beam for at most 16 such rays, whose beam costs more than it culls: the per-ray
     ///   packet traversal, the setting's other stages (ray-box culling) kept;
     /// - ray by ray for the rest (ambient-occlusion and diffuse rays), whose directions differ
@@ -675,19 +677,27 @@ mod tests {
             Culling::AUTO.for_packet(&tile, tile.full_mask(), &far),
             PacketTrace::RayByRay
         );
-        // A tile's shadow rays: origins apart, converging on the light.
-        let light = Vec3::new(0.0, 0.0, 10.0);
-        let shadow = |f: f32| {
-            let o = Vec3::new(f * 0.01, 0.0, 0.0);
-            Ray::new(o, light - o)
+        // A tile's shadow rays: origins 1% of the scene apart, converging on the light.
+        let shadow_to = |light: Vec3| {
+            move |f: f32| {
+                let o = Vec3::new(f * 0.01, 0.0, 0.0);
+                Ray::new(o, light - o)
+            }
         };
-        let resolved = resolve(&packet(64, &shadow));
+        // To a distant light they run side by side: traversed as a whole.
+        let side_by_side = shadow_to(Vec3::new(0.0, 0.0, 10.0));
+        for n in [16, 64] {
+            assert_eq!(resolve(&packet(n, &side_by_side)).frustum, Frustum::Packet);
+        }
+        // To a light close by they fan out (directions 0.05 apart): the adaptive beam.
+        let fanned = shadow_to(Vec3::new(0.0, 0.0, 0.2));
+        let resolved = resolve(&packet(64, &fanned));
         assert_eq!(
             (resolved.frustum, resolved.planes),
             (Frustum::Adaptive, Planes::Six)
         );
         // Sixteen of them: no beam, ray-box culling kept.
-        let resolved = resolve(&packet(16, &shadow));
+        let resolved = resolve(&packet(16, &fanned));
         assert!(!resolved.is_enabled(), "{resolved:?}");
         assert_eq!(resolved.raybox, RayBoxes::Auto);
         // Rays over a hemisphere: ray by ray, however many.

@@ -18,8 +18,15 @@ pub(crate) const MAX_DIRECTION_SPREAD: f32 = 0.02;
 /// start together: a pinhole camera's tiles (one origin), a thin lens of small aperture. Rays
 /// that start on surfaces (shadow rays, which converge on the light, as well as
 /// ambient-occlusion and diffuse rays) spread their origins over the tile's footprint, and the
-/// per-ray traversal serves them better.
+/// per-ray traversal serves them better unless they run side by side
+/// ([`MAX_SHARED_FOOTPRINT`]).
 pub(crate) const MAX_ORIGIN_SPREAD: f32 = 1.0 / 1024.0;
+
+/// The widest footprint ([`Spread::footprint`]) of a packet whose rays start apart that still
+/// traverses the tree as one interval: rays that run side by side across the scene, within 2%
+/// of its largest extent of each other, such as a pixel tile's shadow rays toward a distant
+/// light, cross nearly the same cells.
+pub(crate) const MAX_SHARED_FOOTPRINT: f32 = 0.02;
 
 /// The widest spread of unit directions for which a packet that is not coherent still builds
 /// beams (with [`Frustum::Adaptive`](crate::trace::Frustum::Adaptive)): shadow rays of a tile,
@@ -63,9 +70,11 @@ impl Spread {
         footprint: 0.0,
     };
 
-    /// Within [`MAX_DIRECTION_SPREAD`] and [`MAX_ORIGIN_SPREAD`]?
+    /// Within [`MAX_DIRECTION_SPREAD`], and within [`MAX_ORIGIN_SPREAD`] or
+    /// [`MAX_SHARED_FOOTPRINT`]?
     pub(crate) fn is_coherent(self) -> bool {
-        self.direction <= MAX_DIRECTION_SPREAD && self.origin <= MAX_ORIGIN_SPREAD
+        self.direction <= MAX_DIRECTION_SPREAD
+            && (self.origin <= MAX_ORIGIN_SPREAD || self.footprint <= MAX_SHARED_FOOTPRINT)
     }
 
     /// Do `rays` rays of this spread land farther apart than [`MAX_RAY_SPACING`]? The
