@@ -284,7 +284,11 @@ fn planes<L: Lanes>(l: L, node: &WideNode, rows: [usize; 3], at: usize) -> [L::F
 /// Of the children `entered` (bit `k`: child `k`), the one entered first; `push` gets the
 /// others, farthest first, so that a stack pops them nearest first.
 #[inline(always)]
-fn nearest_first(entered: u32, near: &[f32; WIDE], mut push: impl FnMut(usize)) -> usize {
+pub(crate) fn nearest_first(
+    entered: u32,
+    near: &[f32; WIDE],
+    mut push: impl FnMut(usize),
+) -> usize {
     let rest = entered & (entered - 1);
     if rest == 0 {
         return entered.trailing_zeros() as usize;

@@ -7,7 +7,8 @@ use kdbeam_kernels::MAX_PACKET_RAYS;
 pub struct PacketCounters {
     /// Packets (after the split by octant) traced.
     pub packets: u64,
-    /// Inner nodes entered by a packet.
+    /// Inner nodes entered by a packet: binary nodes, or the wide nodes of the whole-packet
+    /// traversal where it steps through them.
     pub inner_visits: u64,
     /// Non-empty leaves entered by a packet.
     pub leaf_visits: u64,
