@@ -57,9 +57,9 @@ pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 ///
 /// An incoherent packet's interval covers far more cells than its rays cross. After
 /// [`INTERVAL_NODE_BUDGET`] inner nodes (a third as many wide nodes, before any leaf test) the
-/// traversal stops and returns the rays still
-/// unfinished, for [`traverse_octant`] to trace again (hits found so far stay: they are real,
-/// and the per-ray traversal only improves on them); `0` when it finished.
+/// traversal stops and returns the rays still unfinished, for [`traverse_octant`] to trace
+/// again (hits found so far stay: they are real, and the per-ray traversal only improves on
+/// them); `0` when it finished.
 #[inline(always)]
 pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
@@ -80,7 +80,7 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
 /// What the whole-packet traversal knows of its rays: the ranges of origin and reciprocal
 /// direction over the rays inside the root box, the largest `|o·inv|` per axis, the packet's
 /// interval `[t_enter, t_exit]`, which rays are inside, and every ray's reciprocal.
-pub(crate) struct IntervalRays {
+struct IntervalRays {
     o: [[f32; 2]; 3],
     inv: [[f32; 2]; 3],
     err: [f32; 3],
@@ -93,7 +93,7 @@ pub(crate) struct IntervalRays {
 impl IntervalRays {
     /// The summary of the rays of `mask` of `p` (traceable, one octant) clipped to `bounds`.
     #[inline(always)]
-    pub(crate) fn new<L: Lanes>(l: L, p: &RayPacket, mask: u64, bounds: &Aabb) -> Self {
+    fn new<L: Lanes>(l: L, p: &RayPacket, mask: u64, bounds: &Aabb) -> Self {
         let (inf, ninf, max) = (
             l.splat(f32::INFINITY),
             l.splat(f32::NEG_INFINITY),
@@ -156,9 +156,7 @@ impl IntervalRays {
             inv_columns,
         }
     }
-}
 
-impl IntervalRays {
     /// Are the ranges of origin and reciprocal finite on every axis? Then no corner product of
     /// a box plane in [`traverse_wide`] is NaN: the planes are finite, or the `±inf` of a
     /// missing child.
@@ -221,6 +219,7 @@ fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
     let mut done = 0u64;
     let (mut budget, mut tested) = (INTERVAL_NODE_BUDGET / 3, false);
     let mut latest = latest_best(l, live_mask, t.visitor.best_t());
+    // As in the binary traversal, the rays' beams share one summary.
     let shared_rays = Cell::new(None);
     loop {
         if child.is_node() {
@@ -311,9 +310,6 @@ fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
 ) -> u64 {
     let (l, tree) = (t.l, t.tree);
     let live_mask = rays.live;
-    if live_mask == 0 {
-        return 0;
-    }
     let bounds = root_bounds(tree);
     let scene_bound = bounds.min.abs().max(bounds.max.abs()).max_element();
     t.counters.packets += 1;
