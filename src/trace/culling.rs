@@ -6,7 +6,9 @@ use std::str::FromStr;
 use kdbeam_kernels::beam::Stages;
 use kdbeam_kernels::{Aabb, Isa, RayPacket};
 
-use super::packet::{spread, MAX_BEAM_DIRECTION_SPREAD, MIN_BEAM_RAYS};
+use super::packet::{
+    spread, MAX_BEAM_DIRECTION_SPREAD, MAX_SHARED_WALK_ORIGIN_SPREAD, MIN_BEAM_RAYS,
+};
 use super::subspace::Subspace;
 use crate::{Error, Result};
 
@@ -80,10 +82,12 @@ pub enum Frustum {
     /// - no beam for at most 16 such rays, whose beam costs more than it culls: the per-ray
     ///   packet traversal, the setting's other stages (ray-box culling) kept;
     /// - ray by ray for the rest (ambient-occlusion and diffuse rays), whose directions differ
-    ///   too much for a beam and for a shared traversal: each ray is traced as
-    ///   [`Tracer::intersect`](crate::Tracer::intersect) traces it, with the setting's
-    ///   single-ray stages, through the tree's wide nodes on SIMD lanes (a vector of child
-    ///   boxes per step), two rays' walks interleaved.
+    ///   too much for a beam and for a shared traversal: each ray finds the hit
+    ///   [`Tracer::intersect`](crate::Tracer::intersect) finds, with the setting's single-ray
+    ///   stages, through the tree's wide nodes on SIMD lanes. Without a single-ray stage,
+    ///   rays whose origins lie within a sixteenth of the scene's extent of each other (a
+    ///   tile's secondary rays) walk side by side, a lane each, one vector of rays per child
+    ///   box; others go two at a time, their walks interleaved.
     Coherent,
 }
 
@@ -92,8 +96,13 @@ pub enum Frustum {
 pub(crate) enum PacketTrace {
     /// Through the packet traversal, culled as this setting says.
     Packet(Culling),
-    /// One by one, as single rays with the tracer's single-ray stages.
-    RayByRay,
+    /// One by one, as single rays with the tracer's single-ray stages; with `together`, a
+    /// group of lanes' rays at a time walks the wide nodes side by side, a vector of rays per
+    /// box test (when no single-ray stage culls).
+    RayByRay {
+        /// Do the rays start close enough together to share their walk's nodes?
+        together: bool,
+    },
 }
 
 /// Where ray-box culling (Nah et al.; [`Culling::with_raybox`]) runs.
@@ -353,8 +362,9 @@ impl Culling {
             return PacketTrace::Packet(self);
         }
         let s = spread(packet, active, bounds);
+        let together = s.origin <= MAX_SHARED_WALK_ORIGIN_SPREAD;
         if s.is_sparse((active & packet.full_mask()).count_ones()) {
-            PacketTrace::RayByRay
+            PacketTrace::RayByRay { together }
         } else if s.is_coherent() {
             PacketTrace::Packet(Culling {
                 frustum: Frustum::Packet,
@@ -363,7 +373,7 @@ impl Culling {
                 ..self
             })
         } else if s.direction > MAX_BEAM_DIRECTION_SPREAD {
-            PacketTrace::RayByRay
+            PacketTrace::RayByRay { together }
         } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS {
             PacketTrace::Packet(self.with_frustum(Frustum::Adaptive))
         } else {
@@ -666,7 +676,7 @@ mod tests {
         let trace = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), &unit);
         let resolve = |p: &RayPacket| match trace(p) {
             PacketTrace::Packet(c) => c,
-            PacketTrace::RayByRay => panic!("{p:?} traced ray by ray"),
+            PacketTrace::RayByRay { .. } => panic!("{p:?} traced ray by ray"),
         };
         // A camera's tile: one origin, directions within 0.02.
         let tile = packet(64, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
@@ -675,7 +685,7 @@ mod tests {
         let far = Aabb::new(Vec3::new(-0.5, -0.5, 99.5), Vec3::new(0.5, 0.5, 100.5));
         assert_eq!(
             Culling::AUTO.for_packet(&tile, tile.full_mask(), &far),
-            PacketTrace::RayByRay
+            PacketTrace::RayByRay { together: true }
         );
         // A tile's shadow rays: origins 1% of the scene apart, converging on the light.
         let shadow_to = |light: Vec3| {
@@ -703,8 +713,19 @@ mod tests {
         // Rays over a hemisphere: ray by ray, however many.
         let hemisphere = |f: f32| Ray::new(Vec3::ZERO, Vec3::new(f - 0.5, 0.3, 1.0 - f));
         for p in [packet(16, &hemisphere), packet(64, &hemisphere)] {
-            assert_eq!(trace(&p), PacketTrace::RayByRay);
+            assert_eq!(trace(&p), PacketTrace::RayByRay { together: true });
         }
+        // Rays that start all over the scene: ray by ray, each walking alone.
+        let scattered = |f: f32| {
+            Ray::new(
+                Vec3::new(f - 0.5, 0.0, 0.0),
+                Vec3::new(f - 0.5, 0.3, 1.0 - f),
+            )
+        };
+        assert_eq!(
+            trace(&packet(64, &scattered)),
+            PacketTrace::RayByRay { together: false }
+        );
         // A setting that is not `Coherent` is traced as it is.
         let fixed = Culling::FULL;
         assert_eq!(

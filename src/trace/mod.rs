@@ -14,6 +14,7 @@ mod stream;
 mod subspace;
 pub mod synthetic;
 pub(crate) mod wide;
+mod wide_lanes;
 
 use std::marker::PhantomData;
 
@@ -322,9 +323,9 @@ impl<'t> Tracer<'t> {
     ) {
         let culling = match self.packet_trace(packet, active) {
             PacketTrace::Packet(culling) => culling,
-            PacketTrace::RayByRay => {
+            PacketTrace::RayByRay { together } => {
                 *hits = HitPacket::default();
-                self.ray_by_ray::<false>(packet, active, counters, |i, (_, hit, c)| {
+                self.ray_by_ray::<false>(packet, active, together, counters, |i, (_, hit, c)| {
                     (hits.t[i], hits.u[i], hits.v[i]) = (hit.t, hit.u, hit.v);
                     hits.triangle[i] = hit.triangle;
                     hits.tests[i] = u32::try_from(c.tests).unwrap_or(u32::MAX);
@@ -413,9 +414,9 @@ impl<'t> Tracer<'t> {
     ) -> u64 {
         let culling = match self.packet_trace(packet, active) {
             PacketTrace::Packet(culling) => culling,
-            PacketTrace::RayByRay => {
+            PacketTrace::RayByRay { together } => {
                 let mut occluded = 0;
-                self.ray_by_ray::<true>(packet, active, counters, |i, (found, _, _)| {
+                self.ray_by_ray::<true>(packet, active, together, counters, |i, (found, _, _)| {
                     occluded |= u64::from(found) << i;
                 });
                 return occluded;
@@ -550,13 +551,16 @@ impl<C: TriangleCull, A: FnMut(&Hit) -> bool, const ANY: bool> LaneTask
 impl Tracer<'_> {
     /// Traces every ray `i` of `packet` set in `active` as a single ray ([`Tracer::single`]),
     /// gives `record(i, result)`, and adds the work to `counters` as one packet of single
-    /// rays. Unculled (the SIMD default), the rays go two at a time in one task
+    /// rays. Unculled (the SIMD default), the rays go in one task: with `together`, a group
+    /// of lanes' rays at a time walking side by side ([`single::lanes`]) where a group holds
+    /// more than [`wide_lanes::ALONE`] of them, and the others two at a time
     /// ([`single::pair`]), their walks interleaved.
     #[inline]
     fn ray_by_ray<const ANY: bool>(
         &self,
         packet: &RayPacket,
         active: u64,
+        together: bool,
         counters: &mut PacketCounters,
         mut record: impl FnMut(usize, (bool, Hit, RayCounters)),
     ) {
@@ -587,6 +591,7 @@ impl Tracer<'_> {
                 tree,
                 packet,
                 active,
+                together,
                 record: add,
                 test: PhantomData,
             }),
@@ -594,6 +599,7 @@ impl Tracer<'_> {
                 tree,
                 packet,
                 active,
+                together,
                 record: add,
                 test: PhantomData,
             }),
@@ -601,12 +607,15 @@ impl Tracer<'_> {
     }
 }
 
-/// The rays `active` of `packet` through `tree`, unculled, two at a time ([`single::pair`]),
-/// as a task generic over the lanes; `record(i, result)` gets each ray's result.
+/// The rays `active` of `packet` through `tree`, unculled, as a task generic over the lanes:
+/// with `together` on SIMD lanes, the groups of lanes that hold more than [`wide_lanes::ALONE`]
+/// of them walking side by side ([`single::lanes`]), and the rest two at a time
+/// ([`single::pair`]); `record(i, result)` gets each ray's result.
 struct RayPairs<'a, T, R, const ANY: bool> {
     tree: &'a KdTree,
     packet: &'a RayPacket,
     active: u64,
+    together: bool,
     record: R,
     test: PhantomData<T>,
 }
@@ -619,6 +628,27 @@ impl<T: RayTest, R: FnMut(usize, (bool, Hit, RayCounters)), const ANY: bool> Lan
     #[inline(always)]
     fn run<L: Lanes>(mut self, l: L) {
         let mut lanes = self.active;
+        if L::WIDTH > 1 && self.together {
+            let traceable = packet::traceable_mask(l, self.packet, lanes);
+            let mut untraceable = lanes & !traceable;
+            while untraceable != 0 {
+                let i = untraceable.trailing_zeros() as usize;
+                untraceable &= untraceable - 1;
+                (self.record)(i, (false, Hit::NONE, RayCounters::default()));
+            }
+            lanes = 0;
+            for base in (0..self.packet.len()).step_by(L::WIDTH) {
+                let group = (traceable >> base) as u32 & ((1u64 << L::WIDTH) - 1) as u32;
+                if group.count_ones() > wide_lanes::ALONE {
+                    let record = &mut self.record;
+                    single::lanes::<L, T, ANY>(l, self.tree, self.packet, base, group, |i, r| {
+                        record(base + i, r)
+                    });
+                } else {
+                    lanes |= u64::from(group) << base;
+                }
+            }
+        }
         while lanes != 0 {
             let i = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;

@@ -6,11 +6,14 @@
 //! `KdTreeAccel::Intersect`. A [`LeafVisitor`] tests a leaf's triangles; traversal stops once
 //! the closest hit so far lies before the next cell.
 
+use arrayvec::ArrayVec;
 use glam::Vec3A;
 use kdbeam_kernels::intersect::{kensler_shirley, watertight::WatertightRay, LaneHits};
 use kdbeam_kernels::raybox::segment_box;
 use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{slab, Aabb, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, TriangleBlock};
+use kdbeam_kernels::{
+    slab, Aabb, Hit, LaneF32, LaneMask, LaneTask, Lanes, Ray, RayPacket, TriangleBlock,
+};
 
 use crate::kdtree::{KdTree, LeafRecord, LeafTriangles, Node};
 
@@ -640,6 +643,50 @@ pub(crate) fn pair<L: Lanes, T: RayTest, const ANY: bool>(
             (a.hit.is_hit(), a.hit, a.leaves.counters),
             (b.hit.is_hit(), b.hit, b.leaves.counters),
         ]
+    }
+}
+
+/// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH` (traceable ones),
+/// unculled, each with its own test `T`, every hit accepted, walked together
+/// ([`super::wide_lanes::traverse`]); `record(i, result)` gets ray `base + i`'s result, as
+/// [`pair`] gives it.
+#[inline(always)]
+pub(crate) fn lanes<L: Lanes, T: RayTest, const ANY: bool>(
+    l: L,
+    tree: &KdTree,
+    packet: &RayPacket,
+    base: usize,
+    lanes: u32,
+    mut record: impl FnMut(usize, (bool, Hit, RayCounters)),
+) {
+    let width = L::WIDTH.min(packet.len() - base);
+    let rays: ArrayVec<Ray, 16> = (0..width).map(|i| packet.ray(base + i)).collect();
+    let tests: ArrayVec<T, 16> = rays.iter().map(T::for_ray).collect();
+    let accept = |_: &Hit| true;
+    if ANY {
+        let mut visitors: ArrayVec<_, 16> = rays
+            .iter()
+            .zip(&tests)
+            .map(|(ray, test)| Any::new(l, ray, test, NoCull, accept))
+            .collect();
+        super::wide_lanes::traverse(l, tree, packet, base, lanes, &mut visitors);
+        for (i, v) in visitors.iter().enumerate() {
+            if lanes >> i & 1 != 0 {
+                record(i, (v.found, Hit::NONE, v.leaves.counters));
+            }
+        }
+    } else {
+        let mut visitors: ArrayVec<_, 16> = rays
+            .iter()
+            .zip(&tests)
+            .map(|(ray, test)| Closest::new(l, ray, test, NoCull, accept))
+            .collect();
+        super::wide_lanes::traverse(l, tree, packet, base, lanes, &mut visitors);
+        for (i, v) in visitors.iter().enumerate() {
+            if lanes >> i & 1 != 0 {
+                record(i, (v.hit.is_hit(), v.hit, v.leaves.counters));
+            }
+        }
     }
 }
 

@@ -64,6 +64,47 @@ pub(crate) fn traverse_pair<L: Lanes, V: LeafVisitor>(
     }
 }
 
+/// The rest of `ray`'s [`traverse`] from the child `start` of the tree's wide nodes, entered
+/// over `start`'s interval, with the closest hit so far at `best_t` (`+inf` without one): a
+/// walk that a group of rays began together ([`super::wide_lanes`]) and `ray` ends alone.
+/// Returns the closest hit so far once the walk is over, or `None` when `visitor` stopped it.
+#[inline(always)]
+pub(crate) fn traverse_from<L: Lanes, V: LeafVisitor>(
+    l: L,
+    tree: &KdTree,
+    ray: &Ray,
+    start: Pending,
+    best_t: f32,
+    visitor: &mut V,
+) -> Option<f32> {
+    let nodes = tree.wide_nodes().nodes();
+    let mut leaves = Stops {
+        leaves: KdLeaves { tree, visitor },
+        stopped: false,
+    };
+    let mut stack = Stack::new();
+    let mut w = Walker::new(l, ray);
+    (w.child, w.t_enter, w.t_exit) = start;
+    w.best_t = best_t;
+    while w.step(l, nodes, &mut stack, &mut leaves) {}
+    (!leaves.stopped).then_some(w.best_t)
+}
+
+/// Leaves that remember whether they stopped the walk.
+struct Stops<W> {
+    leaves: W,
+    stopped: bool,
+}
+
+impl<W: WideLeaves> WideLeaves for Stops<W> {
+    #[inline(always)]
+    fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32> {
+        let answer = self.leaves.visit(leaf, t_enter, t_exit);
+        self.stopped = answer.is_none();
+        answer
+    }
+}
+
 /// What a walk of wide nodes ([`walk`]) does in each leaf it enters.
 ///
 /// A trait rather than a closure so that `#[inline(always)]` keeps the leaf's work inside the
@@ -132,7 +173,7 @@ pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
 }
 
 /// A child left for later, with the interval the ray enters it over.
-type Pending = (WideChild, f32, f32);
+pub(crate) type Pending = (WideChild, f32, f32);
 
 /// The children a walk has left for later, nearest on top. Not initialised: a walk's stack is
 /// made for every ray, and most rays use a few of its entries.

@@ -28,6 +28,13 @@ pub(crate) const MAX_ORIGIN_SPREAD: f32 = 1.0 / 1024.0;
 /// light, cross nearly the same cells.
 pub(crate) const MAX_SHARED_FOOTPRINT: f32 = 0.02;
 
+/// The widest spread, on any axis, of the origins of a packet traced ray by ray whose rays
+/// still walk the wide nodes side by side, relative to the scene's largest extent: rays that
+/// start within a sixteenth of the scene of each other, such as the ambient-occlusion and
+/// diffuse rays of a pixel tile, cross the same nodes near the root and around their surface
+/// whatever their directions; rays that start all over the scene share little beyond the root.
+pub(crate) const MAX_SHARED_WALK_ORIGIN_SPREAD: f32 = 1.0 / 16.0;
+
 /// The widest spread of unit directions for which a packet that is not coherent still builds
 /// beams (with [`Frustum::Adaptive`](crate::trace::Frustum::Adaptive)): shadow rays of a tile,
 /// which converge on the light. Ambient-occlusion and diffuse rays spread far wider, and their

@@ -31,7 +31,9 @@ use kdbeam_kernels::{HitPacket, Lanes, RayPacket, MAX_PACKET_RAYS};
 
 use any_hits::AnyHits;
 pub(crate) use closest_hits::ClosestHits;
-pub(crate) use coherence::{spread, MAX_BEAM_DIRECTION_SPREAD, MIN_BEAM_RAYS};
+pub(crate) use coherence::{
+    spread, MAX_BEAM_DIRECTION_SPREAD, MAX_SHARED_WALK_ORIGIN_SPREAD, MIN_BEAM_RAYS,
+};
 pub(crate) use counters::Stamp;
 pub use counters::{PacketCounters, StageCycles};
 use interval::traverse_octant_interval;
