@@ -669,7 +669,7 @@ pub(crate) fn lanes<L: Lanes, T: RayTest, const ANY: bool>(
             .zip(&tests)
             .map(|(ray, test)| Any::new(l, ray, test, NoCull, accept))
             .collect();
-        super::wide_lanes::traverse(l, tree, packet, base, lanes, &mut visitors);
+        super::wide_lanes::traverse::<_, _, false>(l, tree, packet, base, lanes, &mut visitors);
         for (i, v) in visitors.iter().enumerate() {
             if lanes >> i & 1 != 0 {
                 record(i, (v.found, Hit::NONE, v.leaves.counters));
@@ -681,7 +681,7 @@ pub(crate) fn lanes<L: Lanes, T: RayTest, const ANY: bool>(
             .zip(&tests)
             .map(|(ray, test)| Closest::new(l, ray, test, NoCull, accept))
             .collect();
-        super::wide_lanes::traverse(l, tree, packet, base, lanes, &mut visitors);
+        super::wide_lanes::traverse::<_, _, true>(l, tree, packet, base, lanes, &mut visitors);
         for (i, v) in visitors.iter().enumerate() {
             if lanes >> i & 1 != 0 {
                 record(i, (v.hit.is_hit(), v.hit, v.leaves.counters));
