@@ -326,8 +326,11 @@ pub(crate) struct RaysOf {
 pub(crate) enum KdbeamRays {
     /// Single rays.
     Single(Vec<Ray>),
-    /// Packets: pixel tiles of primary and secondary rays, consecutive random rays.
+    /// The camera's pixel tiles of primary rays, made as packets.
     Packets(Vec<RayPacket>),
+    /// Packets of rays made one by one (pixel tiles of secondary rays, consecutive random
+    /// rays), formed as they are traced.
+    Formed(PacketRays),
     /// The rays, to be sorted over the box and cut into the tracer's packets.
     Stream(Vec<Ray>, Aabb),
 }
@@ -337,6 +340,7 @@ impl KdbeamRays {
         match self {
             KdbeamRays::Single(rays) | KdbeamRays::Stream(rays, _) => rays.len(),
             KdbeamRays::Packets(packets) => packets.iter().map(RayPacket::len).sum(),
+            KdbeamRays::Formed(packets) => packets.rays.len(),
         }
     }
 
@@ -344,8 +348,8 @@ impl KdbeamRays {
     fn name(&self, set: RaySet) -> &'static str {
         match self {
             KdbeamRays::Single(_) => "single",
-            KdbeamRays::Packets(_) if set == RaySet::Random => "consecutive",
-            KdbeamRays::Packets(_) => "tiles",
+            KdbeamRays::Formed(_) if set == RaySet::Random => "consecutive",
+            KdbeamRays::Packets(_) | KdbeamRays::Formed(_) => "tiles",
             KdbeamRays::Stream(..) => "stream",
         }
     }
@@ -383,15 +387,18 @@ impl RaysOf {
             return Ok(KdbeamRays::Single(r.rays.clone()));
         }
         let shape = packet_shape(packet)?;
-        Ok(KdbeamRays::Packets(match (&r.secondary, r.set) {
-            (Some(secondary), _) => secondary.tile_packets(&r.camera, shape).packets,
-            (None, RaySet::Primary) => r.camera.tile_packets(shape),
-            (None, _) => r
-                .rays
-                .chunks(shape.ray_count())
-                .map(RayPacket::from_rays)
-                .collect(),
-        }))
+        Ok(match (&r.secondary, r.set) {
+            (Some(secondary), _) => KdbeamRays::Formed(PacketRays::new(
+                &secondary.tile_packets(&r.camera, shape).packets,
+            )),
+            (None, RaySet::Primary) => KdbeamRays::Packets(r.camera.tile_packets(shape)),
+            (None, _) => KdbeamRays::Formed(PacketRays {
+                rays: r.rays.clone(),
+                ends: (1..=r.rays.len().div_ceil(shape.ray_count()))
+                    .map(|k| (k * shape.ray_count()).min(r.rays.len()))
+                    .collect(),
+            }),
+        })
     }
 
     /// The layouts of `layouts` for `packet`: single rays for 1, otherwise tiles and (but for
@@ -473,6 +480,77 @@ pub(crate) struct Measured {
     pub culled_percent: f64,
 }
 
+/// Packets of rays made one by one, as their rays, packet after packet: what a renderer holds
+/// of its secondary rays before it forms each packet's [`RayPacket`] (64 lanes, whatever its
+/// size) to trace it. Held as `RayPacket`s all at once, a frame of 16-ray packets would take
+/// four times the memory of its rays and push the tree out of the cache, which a renderer
+/// tracing tile by tile never does.
+pub(crate) struct PacketRays {
+    rays: Vec<Ray>,
+    /// Where each packet's rays end in `rays`.
+    ends: Vec<usize>,
+}
+
+impl PacketRays {
+    fn new(packets: &[RayPacket]) -> Self {
+        let mut rays = Vec::with_capacity(packets.iter().map(RayPacket::len).sum());
+        let mut ends = Vec::with_capacity(packets.len());
+        for p in packets {
+            rays.extend((0..p.len()).map(|i| p.ray(i)));
+            ends.push(rays.len());
+        }
+        PacketRays { rays, ends }
+    }
+
+    /// The rays of packet `k`.
+    fn packet(&self, k: usize) -> &[Ray] {
+        let start = if k == 0 { 0 } else { self.ends[k - 1] };
+        &self.rays[start..self.ends[k]]
+    }
+
+    /// Traces each packet, formed in a thread's reused [`RayPacket`] (its hits in a thread's
+    /// reused [`HitPacket`]): `trace(packet, hits, out)` for packet `k` and `outs[k]`; the sum
+    /// of what it returns.
+    fn trace_each<T: Send>(
+        &self,
+        outs: &mut [T],
+        trace: impl Fn(&RayPacket, &mut HitPacket, &mut T) -> u64 + Sync,
+    ) -> u64 {
+        outs.par_iter_mut()
+            .enumerate()
+            .map_init(
+                || {
+                    (
+                        Box::new(RayPacket::from_rays(&[])),
+                        Box::<HitPacket>::default(),
+                    )
+                },
+                |(packet, hits), (k, out)| {
+                    let rays = self.packet(k);
+                    packet.set_len(rays.len());
+                    for (i, r) in rays.iter().enumerate() {
+                        packet.set(i, r);
+                    }
+                    trace(packet, hits, out)
+                },
+            )
+            .sum()
+    }
+
+    /// `hits` cut into each packet's part.
+    fn split<'h>(&self, mut hits: &'h mut [Hit]) -> Vec<&'h mut [Hit]> {
+        let mut start = 0;
+        self.ends
+            .iter()
+            .map(|&end| {
+                let (part, rest) = std::mem::take(&mut hits).split_at_mut(end - start);
+                (hits, start) = (rest, end);
+                part
+            })
+            .collect()
+    }
+}
+
 /// Median seconds of `tracer` on `rays` over `reps` timed runs after one untimed run, and the
 /// untimed run's counts: closest hits, or occlusion when `any` (shadow and AO rays).
 pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: bool) -> Measured {
@@ -517,8 +595,8 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
             .expect("one output per ray");
             (start.elapsed().as_secs_f64(), (counters.tests, 0))
         }),
-        // Each packet's answer stays in its own output, as Embree's packet calls leave theirs
-        // in their ray structures: neither side's timing converts them.
+        // Each camera packet's answer stays in its own output, as Embree's packet calls leave
+        // theirs in their ray structures: neither side's timing converts them.
         KdbeamRays::Packets(packets) if any => {
             let mut outs = vec![0u64; packets.len()];
             warm_then_median(reps, || {
@@ -544,6 +622,35 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
                     .zip(outs.par_iter_mut())
                     .map(|(p, out)| tracer.intersect_packet(p, p.full_mask(), out).tests)
                     .sum();
+                (start.elapsed().as_secs_f64(), (tests, 0))
+            })
+        }
+        // kdbeam forms each packet from its rays and writes its closest hits back to them inside
+        // its timing, as a renderer tracing tile by tile does; Embree's packet structures, as
+        // small as their rays, are built before its timing and keep their answers.
+        KdbeamRays::Formed(packets) if any => {
+            let mut outs = vec![0u64; packets.ends.len()];
+            warm_then_median(reps, || {
+                let start = Instant::now();
+                let tests = packets.trace_each(&mut outs, |p, _, bits| {
+                    let mut c = kdbeam::trace::PacketCounters::default();
+                    *bits = tracer.occluded_packet_counted(p, p.full_mask(), &mut c);
+                    c.tests
+                });
+                (start.elapsed().as_secs_f64(), (tests, 0))
+            })
+        }
+        KdbeamRays::Formed(packets) => {
+            let mut outs = packets.split(&mut hits);
+            warm_then_median(reps, || {
+                let start = Instant::now();
+                let tests = packets.trace_each(&mut outs, |p, scratch, out| {
+                    let tests = tracer.intersect_packet(p, p.full_mask(), scratch).tests;
+                    for (i, h) in out.iter_mut().enumerate() {
+                        *h = scratch.hit(i);
+                    }
+                    tests
+                });
                 (start.elapsed().as_secs_f64(), (tests, 0))
             })
         }
