@@ -5,13 +5,14 @@
 //! cross the same wide nodes near the root and around their surface whatever their directions.
 //! Walked one by one ([`super::wide::walk`]), each ray loads and tests those nodes again; here
 //! a node is loaded once for the group, and each of its children's boxes is tested against
-//! every ray of the group in one vector step (the packet traversal of Wald, Benthin & Boulos,
-//! *Getting Rid of Packets*, RT 2008, as Embree runs `N`-wide nodes with `K`-ray packets). The
-//! rays that enter a child go down into it together, each with its own interval; for closest
-//! hits children are taken nearest entry first by the smallest entry among their rays. Once a node is entered by
-//! at most [`ALONE`] rays, each finishes that subtree by itself ([`super::wide::traverse_from`]),
-//! as Embree's hybrid traversal does, since a vector step for one or two rays costs more than
-//! their own walks.
+//! every ray of the group in one vector step, as Embree runs its `N`-wide nodes with `K`-ray
+//! packets. The rays that enter a child go down into it together, each with its own interval;
+//! for closest hits the children are taken nearest entry first by the smallest entry among
+//! their rays. Once a node is entered by at most [`ALONE`] rays, each finishes that subtree by
+//! itself ([`super::wide::traverse_from`]): a vector step for a few rays costs more than their
+//! own walks. This is the hybrid of Benthin, Wald, Woop, Ernst & Mark, *Combining Single and
+//! Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture*, IEEE
+//! TVCG 2012, which Embree's hybrid traversal follows.
 //!
 //! Each ray enters a box over the interval its own walk computes for it: the same planes chosen
 //! by the signs of its direction, the same fused distances ([`clip_planes_fused`]) and the same
