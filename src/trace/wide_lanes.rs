@@ -36,7 +36,8 @@ const MAX_LANES: usize = 16;
 
 /// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH`, each traceable
 /// ([`super::single::is_traceable`]), through `tree` together; `visitors[i]` visits the
-/// leaves of lane `i` (ray `base + i`) and sees what that ray's own walk shows it. With
+/// leaves of lane `i` (ray `base + i`) and sees what that ray's own walk shows it, for every
+/// lane `i` of `lanes`. With
 /// `NEAREST_FIRST` (closest hits) the children a node's rays enter are taken nearest first;
 /// without (any hit) in the node's order, which saves more than a nearer first hit would.
 #[inline(always)]
@@ -48,7 +49,7 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor, const NEAREST_FIRST: bool>(
     lanes: u32,
     visitors: &mut [V],
 ) {
-    debug_assert!(L::WIDTH <= MAX_LANES && visitors.len() >= L::WIDTH);
+    debug_assert!(L::WIDTH <= MAX_LANES && u64::from(lanes) >> visitors.len() == 0);
     let nodes = tree.wide_nodes().nodes();
     if nodes.is_empty() || lanes == 0 {
         return;
