@@ -657,34 +657,60 @@ pub(crate) fn lanes<L: Lanes, T: RayTest, const ANY: bool>(
     packet: &RayPacket,
     base: usize,
     lanes: u32,
-    mut record: impl FnMut(usize, (bool, Hit, RayCounters)),
+    record: impl FnMut(usize, (bool, Hit, RayCounters)),
 ) {
     let width = L::WIDTH.min(packet.len() - base);
     let rays: ArrayVec<Ray, 16> = (0..width).map(|i| packet.ray(base + i)).collect();
     let tests: ArrayVec<T, 16> = rays.iter().map(T::for_ray).collect();
+    let walk = LaneWalk {
+        l,
+        tree,
+        packet,
+        base,
+        lanes,
+        rays: &rays,
+    };
     let accept = |_: &Hit| true;
+    let each = rays.iter().zip(&tests);
     if ANY {
-        let mut visitors: ArrayVec<_, 16> = rays
-            .iter()
-            .zip(&tests)
-            .map(|(ray, test)| Any::new(l, ray, test, NoCull, accept))
-            .collect();
-        super::wide_lanes::traverse::<_, _, false>(l, tree, packet, base, lanes, &mut visitors);
-        for (i, v) in visitors.iter().enumerate() {
-            if lanes >> i & 1 != 0 {
-                record(i, (v.found, Hit::NONE, v.leaves.counters));
-            }
-        }
+        let visitors = each.map(|(ray, test)| Any::new(l, ray, test, NoCull, accept));
+        walk.run::<_, false>(visitors.collect(), record, |v| {
+            (v.found, Hit::NONE, v.leaves.counters)
+        });
     } else {
-        let mut visitors: ArrayVec<_, 16> = rays
-            .iter()
-            .zip(&tests)
-            .map(|(ray, test)| Closest::new(l, ray, test, NoCull, accept))
-            .collect();
-        super::wide_lanes::traverse::<_, _, true>(l, tree, packet, base, lanes, &mut visitors);
+        let visitors = each.map(|(ray, test)| Closest::new(l, ray, test, NoCull, accept));
+        walk.run::<_, true>(visitors.collect(), record, |v| {
+            (v.hit.is_hit(), v.hit, v.leaves.counters)
+        });
+    }
+}
+
+/// One lane group's walk of [`lanes`]: what [`super::wide_lanes::traverse`] reads.
+struct LaneWalk<'a, L> {
+    l: L,
+    tree: &'a KdTree,
+    packet: &'a RayPacket,
+    base: usize,
+    lanes: u32,
+    rays: &'a [Ray],
+}
+
+impl<L: Lanes> LaneWalk<'_, L> {
+    /// Walks the group with a visitor per lane, then gives `record` each traced lane's
+    /// `result`.
+    #[inline(always)]
+    fn run<V: LeafVisitor, const NEAREST_FIRST: bool>(
+        &self,
+        mut visitors: ArrayVec<V, 16>,
+        mut record: impl FnMut(usize, (bool, Hit, RayCounters)),
+        result: impl Fn(&V) -> (bool, Hit, RayCounters),
+    ) {
+        let (l, tree, lanes) = (self.l, self.tree, self.lanes);
+        let rays = (self.packet, self.base, self.rays);
+        super::wide_lanes::traverse::<_, _, NEAREST_FIRST>(l, tree, rays, lanes, &mut visitors);
         for (i, v) in visitors.iter().enumerate() {
             if lanes >> i & 1 != 0 {
-                record(i, (v.hit.is_hit(), v.hit, v.leaves.counters));
+                record(i, result(v));
             }
         }
     }

@@ -22,7 +22,7 @@
 
 use arrayvec::ArrayVec;
 use kdbeam_kernels::slab::clip_planes_fused;
-use kdbeam_kernels::{LaneF32, LaneMask, Lanes, RayPacket};
+use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray, RayPacket};
 
 use super::single::{visit_leaf, LeafVisitor, INTERVAL_EPS};
 use super::wide::traverse_from;
@@ -34,22 +34,22 @@ pub(crate) const ALONE: u32 = 4;
 /// The most lanes of any ISA.
 const MAX_LANES: usize = 16;
 
-/// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH`, each traceable
-/// ([`super::single::is_traceable`]), through `tree` together; `visitors[i]` visits the
-/// leaves of lane `i` (ray `base + i`) and sees what that ray's own walk shows it, for every
-/// lane `i` of `lanes`. With
+/// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH` (`single[i]` is ray
+/// `base + i`), each traceable ([`super::single::is_traceable`]), through `tree` together;
+/// `visitors[i]` visits the leaves of lane `i` and sees what that ray's own walk shows it, for
+/// every lane `i` of `lanes`. With
 /// `NEAREST_FIRST` (closest hits) the children a node's rays enter are taken nearest first;
 /// without (any hit) in the node's order, which saves more than a nearer first hit would.
 #[inline(always)]
 pub(crate) fn traverse<L: Lanes, V: LeafVisitor, const NEAREST_FIRST: bool>(
     l: L,
     tree: &KdTree,
-    packet: &RayPacket,
-    base: usize,
+    (packet, base, single): (&RayPacket, usize, &[Ray]),
     lanes: u32,
     visitors: &mut [V],
 ) {
-    debug_assert!(L::WIDTH <= MAX_LANES && u64::from(lanes) >> visitors.len() == 0);
+    let traced = u64::from(lanes);
+    debug_assert!(L::WIDTH <= MAX_LANES && traced >> visitors.len().min(single.len()) == 0);
     let nodes = tree.wide_nodes().nodes();
     if nodes.is_empty() || lanes == 0 {
         return;
@@ -73,8 +73,8 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor, const NEAREST_FIRST: bool>(
                 let i = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let start = (at.child, at.near.extract(i), at.far.extract(i));
-                let ray = packet.ray(base + i);
-                match traverse_from(l.up_to_8(), tree, &ray, start, best[i], &mut visitors[i]) {
+                let v = &mut visitors[i];
+                match traverse_from(l.up_to_8(), tree, &single[i], start, best[i], v) {
                     Some(t) => best[i] = t,
                     None => alive &= !(1 << i),
                 }
