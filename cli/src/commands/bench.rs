@@ -10,7 +10,7 @@
 
 use std::time::Instant;
 
-use kdbeam::rays::secondary::DEFAULT_AO_RAYS;
+use kdbeam::rays::secondary::{TilePackets, DEFAULT_AO_RAYS};
 use kdbeam::rays::stream::{intersect_sorted, occluded_sorted};
 use kdbeam::trace::{Culling, Intersector, RayBoxes};
 use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Ray, RayPacket, Tracer};
@@ -388,8 +388,9 @@ impl RaysOf {
         }
         let shape = packet_shape(packet)?;
         Ok(match (&r.secondary, r.set) {
-            (Some(secondary), _) => KdbeamRays::Formed(PacketRays::new(
-                &secondary.tile_packets(&r.camera, shape).packets,
+            (Some(secondary), _) => KdbeamRays::Formed(PacketRays::from_tiles(
+                &secondary.tile_packets(&r.camera, shape),
+                &r.rays,
             )),
             (None, RaySet::Primary) => KdbeamRays::Packets(r.camera.tile_packets(shape)),
             (None, _) => KdbeamRays::Formed(PacketRays {
@@ -492,14 +493,20 @@ pub(crate) struct PacketRays {
 }
 
 impl PacketRays {
-    fn new(packets: &[RayPacket]) -> Self {
-        let mut rays = Vec::with_capacity(packets.iter().map(RayPacket::len).sum());
-        let mut ends = Vec::with_capacity(packets.len());
-        for p in packets {
-            rays.extend((0..p.len()).map(|i| p.ray(i)));
-            ends.push(rays.len());
+    /// The packets of `tiles`, whose lanes index `rays`.
+    fn from_tiles(tiles: &TilePackets, rays: &[Ray]) -> Self {
+        let ends = tiles
+            .packets
+            .iter()
+            .scan(0, |end, p| {
+                *end += p.len();
+                Some(*end)
+            })
+            .collect();
+        PacketRays {
+            rays: tiles.rays.iter().map(|&i| rays[i as usize]).collect(),
+            ends,
         }
-        PacketRays { rays, ends }
     }
 
     /// The rays of packet `k`.
