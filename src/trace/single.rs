@@ -39,6 +39,10 @@ pub(crate) trait LeafVisitor {
     /// Tests `leaf`. Returns the `t` of the closest hit so far (`+inf` without one), or `None`
     /// to stop the traversal (an any-hit query that found one).
     fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32>;
+    /// Whether a walk takes the children a ray enters farthest entry first rather than
+    /// nearest first: for visitors that stop at any hit, where the order cannot change the
+    /// answer ([`super::wide`]).
+    const FARTHEST_FIRST: bool = false;
 }
 
 /// A culling stage of single rays: it may skip a leaf the ray enters, and drop triangles of a
@@ -563,6 +567,7 @@ impl<'a, L: Lanes, T: BlockTest, C: TriangleCull, A> Any<'a, L, T, C, A> {
 impl<L: Lanes, T: BlockTest, C: TriangleCull, A: FnMut(&Hit) -> bool> LeafVisitor
     for Any<'_, L, T, C, A>
 {
+    const FARTHEST_FIRST: bool = true;
     #[inline(always)]
     fn visit(&mut self, leaf: LeafEntry<'_>) -> Option<f32> {
         if !self.leaves.enter(&leaf) {

@@ -11,6 +11,11 @@
 //! in `t` go to the smaller id ([`Hit::is_beaten_by`](kdbeam_kernels::Hit::is_beaten_by)) in
 //! any order.
 //!
+//! A walk that stops at any hit (a shadow or ambient-occlusion ray) takes the children
+//! farthest entry first ([`WideLeaves::FARTHEST_FIRST`]): any order gives the same answer, and
+//! such rays start on a surface, so the cells around their origin hold the surface they leave
+//! and its neighbours, which they mostly miss, while their occluder tends to lie farther along.
+//!
 //! The walk ([`walk`]) serves any wide nodes: a kd-tree's, and a scene's top level over its
 //! instances. Two rays may walk at once ([`walk_pair`]), a step of each in turn: one ray's walk
 //! is a single chain of dependent loads and arithmetic, and the CPU overlaps two.
@@ -97,6 +102,7 @@ struct Stops<W> {
 }
 
 impl<W: WideLeaves> WideLeaves for Stops<W> {
+    const FARTHEST_FIRST: bool = W::FARTHEST_FIRST;
     #[inline(always)]
     fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32> {
         let answer = self.leaves.visit(leaf, t_enter, t_exit);
@@ -115,6 +121,9 @@ pub(crate) trait WideLeaves {
     /// `[t_enter, t_exit]`. Returns the `t` of the closest hit so far (`+inf` without one), or
     /// `None` to stop the walk.
     fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32>;
+    /// Whether the walk takes the children a ray enters farthest entry first rather than
+    /// nearest first (see the module's doc).
+    const FARTHEST_FIRST: bool = false;
 }
 
 /// A kd-tree's leaves, by record, tested by `visitor`.
@@ -124,6 +133,7 @@ struct KdLeaves<'a, V> {
 }
 
 impl<V: LeafVisitor> WideLeaves for KdLeaves<'_, V> {
+    const FARTHEST_FIRST: bool = V::FARTHEST_FIRST;
     #[inline(always)]
     fn visit(&mut self, leaf: u32, t_enter: f32, t_exit: f32) -> Option<f32> {
         visit_leaf(self.tree, leaf, t_enter, t_exit, self.visitor)
@@ -246,12 +256,12 @@ impl<L: Lanes> Walker<L> {
     /// Visits the next node or leaf, children left for later going on `stack`; `false` once
     /// the walk is over.
     #[inline(always)]
-    fn step(
+    fn step<W: WideLeaves>(
         &mut self,
         l: L,
         nodes: &[WideNode],
         stack: &mut Stack,
-        leaves: &mut impl WideLeaves,
+        leaves: &mut W,
     ) -> bool {
         if self.child.is_node() {
             let node = &nodes[self.child.index() as usize];
@@ -289,9 +299,12 @@ impl<L: Lanes> Walker<L> {
                 l.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let first = nearest_first(entered, &near, |k| {
-                    stack.push((node.children[k], near[k], far[k]));
-                });
+                let push = |k: usize| stack.push((node.children[k], near[k], far[k]));
+                let first = if W::FARTHEST_FIRST {
+                    farthest_first(entered, &near, push)
+                } else {
+                    nearest_first(entered, &near, push)
+                };
                 (self.child, self.t_enter, self.t_exit) =
                     (node.children[first], near[first], far[first]);
                 return true;
@@ -325,9 +338,24 @@ fn planes<L: Lanes>(l: L, node: &WideNode, rows: [usize; 3], at: usize) -> [L::F
 /// Of the children `entered` (bit `k`: child `k`), the one entered first; `push` gets the
 /// others, farthest first, so that a stack pops them nearest first.
 #[inline(always)]
-pub(crate) fn nearest_first(
+pub(crate) fn nearest_first(entered: u32, near: &[f32; WIDE], push: impl FnMut(usize)) -> usize {
+    in_order_of_entry(entered, near, |a, b| a < b, push)
+}
+
+/// [`nearest_first`] in reverse: of the children `entered`, the one entered last; `push` gets
+/// the others, nearest first, so that a stack pops them farthest first.
+#[inline(always)]
+pub(crate) fn farthest_first(entered: u32, near: &[f32; WIDE], push: impl FnMut(usize)) -> usize {
+    in_order_of_entry(entered, near, |a, b| a > b, push)
+}
+
+/// Of the children `entered`, the one whose entry `near` goes first by `before`; `push` gets
+/// the others, last first, so that a stack pops them in order.
+#[inline(always)]
+fn in_order_of_entry(
     entered: u32,
     near: &[f32; WIDE],
+    before: impl Fn(f32, f32) -> bool,
     mut push: impl FnMut(usize),
 ) -> usize {
     let rest = entered & (entered - 1);
@@ -342,7 +370,7 @@ pub(crate) fn nearest_first(
             entered.trailing_zeros() as usize,
             rest.trailing_zeros() as usize,
         );
-        let b_first = near[b] <= near[a];
+        let b_first = !before(near[a], near[b]);
         push(if b_first { a } else { b });
         return if b_first { b } else { a };
     }
@@ -353,7 +381,7 @@ pub(crate) fn nearest_first(
         let k = bits.trailing_zeros() as usize;
         bits &= bits - 1;
         let mut i = len;
-        while i > 0 && near[order[i - 1]] < near[k] {
+        while i > 0 && before(near[order[i - 1]], near[k]) {
             order[i] = order[i - 1];
             i -= 1;
         }
@@ -364,4 +392,52 @@ pub(crate) fn nearest_first(
         push(k);
     }
     order[len - 1]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{farthest_first, nearest_first, WIDE};
+    use crate::scene::rng::Rng;
+
+    /// An order of the entered children: [`nearest_first`] or [`farthest_first`].
+    type Order = fn(u32, &[f32; WIDE], &mut dyn FnMut(usize)) -> usize;
+
+    /// The children in the order a walk visits them: the first, then the others as a stack
+    /// pops them.
+    fn visits(entered: u32, near: &[f32; WIDE], order: Order) -> Vec<usize> {
+        let mut stack = Vec::new();
+        let first = order(entered, near, &mut |k| stack.push(k));
+        std::iter::once(first)
+            .chain(stack.into_iter().rev())
+            .collect()
+    }
+
+    /// Every entered child is visited once, by its entry: ascending nearest first, descending
+    /// farthest first, ties in either order (entries drawn from a few values make many).
+    #[test]
+    fn children_are_visited_in_order_of_entry_each_once() {
+        let mut rng = Rng::new(11);
+        for _ in 0..2000 {
+            let entered = rng.next_u32() & ((1 << WIDE) - 1);
+            if entered == 0 {
+                continue;
+            }
+            let near: [f32; WIDE] = std::array::from_fn(|_| (rng.next_f32() * 4.0).floor());
+            let nearest = visits(entered, &near, |e, n, p| nearest_first(e, n, p));
+            let farthest = visits(entered, &near, |e, n, p| farthest_first(e, n, p));
+            for (got, ascending) in [(nearest, true), (farthest, false)] {
+                let mut sorted = got.clone();
+                sorted.sort_unstable();
+                let want: Vec<usize> = (0..WIDE).filter(|k| entered >> k & 1 != 0).collect();
+                assert_eq!(sorted, want, "{entered:#b} {near:?}: {got:?}");
+                for pair in got.windows(2) {
+                    let (a, b) = (near[pair[0]], near[pair[1]]);
+                    assert!(
+                        if ascending { a <= b } else { a >= b },
+                        "{entered:#b} {near:?}: {got:?}"
+                    );
+                }
+            }
+        }
+    }
 }

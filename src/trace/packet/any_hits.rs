@@ -42,6 +42,7 @@ impl<T> AnyHits<T> {
 }
 
 impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
+    const FARTHEST_FIRST: bool = true;
     #[inline(always)]
     fn visit(
         &mut self,

@@ -22,7 +22,7 @@ use crate::trace::culling::Frustum;
 #[cfg(doc)]
 use crate::trace::single::split_intervals;
 use crate::trace::single::{root_bounds, INTERVAL_EPS, STACK_DEPTH};
-use crate::trace::wide::nearest_first;
+use crate::trace::wide::{farthest_first, nearest_first};
 
 /// Inner nodes a whole-packet traversal may visit before it hands its rays to the per-ray
 /// traversal: several times what a coherent primary packet visits, and far fewer than the
@@ -181,7 +181,9 @@ impl IntervalRays {
 /// ray's, and is widened by the slack of [`rays_in_box`]. A child's box is the padded union of
 /// the tight boxes of its non-empty leaves, so every leaf whose tight box a ray's segment meets
 /// is entered unless the packet's entry lies after every unfinished ray's best hit: the leaves
-/// the binary traversal would test those rays in, and no empty one.
+/// the binary traversal would test those rays in, and no empty one. The children are taken
+/// nearest entry first, or farthest first for any-hit rays ([`PacketVisitor::FARTHEST_FIRST`],
+/// for the reason [`crate::trace::wide`] gives).
 #[inline(always)]
 fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
@@ -267,9 +269,12 @@ fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
                 w.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let first = nearest_first(entered, &near, |k| {
-                    stack.push((node.children[k], near[k], far[k]));
-                });
+                let push = |k: usize| stack.push((node.children[k], near[k], far[k]));
+                let first = if V::FARTHEST_FIRST {
+                    farthest_first(entered, &near, push)
+                } else {
+                    nearest_first(entered, &near, push)
+                };
                 (child, t_enter, t_exit) = (node.children[first], near[first], far[first]);
                 continue;
             }

@@ -63,6 +63,10 @@ pub(crate) trait PacketVisitor<L: Lanes> {
     /// Closest hit so far per ray (the ray's `tmax` without one): a cell entered after it is
     /// skipped.
     fn best_t(&self) -> &Column;
+    /// Whether the whole-packet traversal takes the children its rays enter farthest entry
+    /// first rather than nearest first: for visitors that stop at any hit, where the order
+    /// cannot change the answer ([`crate::trace::wide`]).
+    const FARTHEST_FIRST: bool = false;
 }
 
 /// Counts a leaf visit of the rays of `visit.mask` and hands it to `visitor`; returns the rays
