@@ -99,16 +99,24 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 let act = l.mask_from_bits(bits);
                 l.store(ne, &mut near_exit[b..]);
                 l.store(fe, &mut far_enter[b..]);
-                // The far child's entry, written where it is pushed if both children are taken.
-                l.store(fe, &mut stack_enter[top][b..]);
-                l.store(tf, &mut stack_exit[top][b..]);
+                // The interval of the child taken second, written where it is pushed if both
+                // children are taken.
+                let (second_enter, second_exit) = if V::FARTHEST_FIRST {
+                    (tn, ne)
+                } else {
+                    (fe, tf)
+                };
+                l.store(second_enter, &mut stack_enter[top][b..]);
+                l.store(second_exit, &mut stack_exit[top][b..]);
                 near_mask |= u64::from((act & tn.le(ne)).bits()) << b;
                 far_mask |= u64::from((act & fe.le(tf)).bits()) << b;
             }
             // An empty leaf has nothing to test: no ray steps into it.
             near_mask &= u64::from(!near_empty).wrapping_neg();
             far_mask &= u64::from(!far_empty).wrapping_neg();
-            if near_mask != 0 {
+            // Any-hit rays take the far child first ([`PacketVisitor::FARTHEST_FIRST`]).
+            let take_near = near_mask != 0 && (far_mask == 0 || !V::FARTHEST_FIRST);
+            if take_near {
                 if far_mask != 0 {
                     stack_node[top] = far;
                     stack_mask[top] = far_mask;
@@ -118,6 +126,11 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
                 (node_index, mask) = (near, near_mask);
                 descended = true;
             } else if far_mask != 0 {
+                if near_mask != 0 {
+                    stack_node[top] = near;
+                    stack_mask[top] = near_mask;
+                    top += 1;
+                }
                 std::mem::swap(&mut t_enter, &mut far_enter);
                 (node_index, mask) = (far, far_mask);
                 descended = true;

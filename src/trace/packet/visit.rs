@@ -63,9 +63,9 @@ pub(crate) trait PacketVisitor<L: Lanes> {
     /// Closest hit so far per ray (the ray's `tmax` without one): a cell entered after it is
     /// skipped.
     fn best_t(&self) -> &Column;
-    /// Whether the whole-packet traversal takes the children its rays enter farthest entry
-    /// first rather than nearest first: for visitors that stop at any hit, where the order
-    /// cannot change the answer ([`crate::trace::wide`]).
+    /// Whether the packet traversals take the children their rays enter farthest entry first
+    /// rather than nearest first (the far child of a split first, per ray): for visitors that
+    /// stop at any hit, where the order cannot change the answer ([`crate::trace::wide`]).
     const FARTHEST_FIRST: bool = false;
 }
 
