@@ -122,8 +122,9 @@ impl WideNodes {
     }
 
     /// Replaces the nodes with those of the kd-tree `nodes` (root first, depth first) whose
-    /// leaves are `leaves`: [`WideNodes::collapse`] of its subtrees' padded boxes, the leaves
-    /// of no triangle dropped. `boxes` is a buffer for the subtrees' boxes, kept by the caller
+    /// leaves are `leaves`: each wide node opens, breadth first, the shallowest inner node
+    /// among its children until it has [`WIDE`] of them or only leaves, each child with its
+    /// subtree's padded box, the leaves of no triangle dropped. `boxes` is a buffer for the subtrees' boxes, kept by the caller
     /// from one build to the next.
     pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
         subtree_boxes(nodes, leaves, boxes);
