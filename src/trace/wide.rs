@@ -299,12 +299,9 @@ impl<L: Lanes> Walker<L> {
                 l.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let push = |k: usize| stack.push((node.children[k], near[k], far[k]));
-                let first = if W::FARTHEST_FIRST {
-                    farthest_first(entered, &near, push)
-                } else {
-                    nearest_first(entered, &near, push)
-                };
+                let first = first_by_entry(entered, &near, W::FARTHEST_FIRST, |k| {
+                    stack.push((node.children[k], near[k], far[k]));
+                });
                 (self.child, self.t_enter, self.t_exit) =
                     (node.children[first], near[first], far[first]);
                 return true;
@@ -335,29 +332,17 @@ fn planes<L: Lanes>(l: L, node: &WideNode, rows: [usize; 3], at: usize) -> [L::F
     ]
 }
 
-/// Of the children `entered` (bit `k`: child `k`), the one entered first; `push` gets the
-/// others, farthest first, so that a stack pops them nearest first.
+/// Of the children `entered` (bit `k`: child `k`), the one entered first by their entries
+/// `near`, or with `farthest` the one entered last; `push` gets the others, last in that order
+/// first, so that a stack pops them in order.
 #[inline(always)]
-pub(crate) fn nearest_first(entered: u32, near: &[f32; WIDE], push: impl FnMut(usize)) -> usize {
-    in_order_of_entry(entered, near, |a, b| a < b, push)
-}
-
-/// [`nearest_first`] in reverse: of the children `entered`, the one entered last; `push` gets
-/// the others, nearest first, so that a stack pops them farthest first.
-#[inline(always)]
-pub(crate) fn farthest_first(entered: u32, near: &[f32; WIDE], push: impl FnMut(usize)) -> usize {
-    in_order_of_entry(entered, near, |a, b| a > b, push)
-}
-
-/// Of the children `entered`, the one whose entry `near` goes first by `before`; `push` gets
-/// the others, last first, so that a stack pops them in order.
-#[inline(always)]
-fn in_order_of_entry(
+pub(crate) fn first_by_entry(
     entered: u32,
     near: &[f32; WIDE],
-    before: impl Fn(f32, f32) -> bool,
+    farthest: bool,
     mut push: impl FnMut(usize),
 ) -> usize {
+    let before = |a: f32, b: f32| if farthest { a > b } else { a < b };
     let rest = entered & (entered - 1);
     if rest == 0 {
         return entered.trailing_zeros() as usize;
@@ -396,17 +381,14 @@ fn in_order_of_entry(
 
 #[cfg(test)]
 mod tests {
-    use super::{farthest_first, nearest_first, WIDE};
+    use super::{first_by_entry, WIDE};
     use crate::scene::rng::Rng;
-
-    /// An order of the entered children: [`nearest_first`] or [`farthest_first`].
-    type Order = fn(u32, &[f32; WIDE], &mut dyn FnMut(usize)) -> usize;
 
     /// The children in the order a walk visits them: the first, then the others as a stack
     /// pops them.
-    fn visits(entered: u32, near: &[f32; WIDE], order: Order) -> Vec<usize> {
+    fn visits(entered: u32, near: &[f32; WIDE], farthest: bool) -> Vec<usize> {
         let mut stack = Vec::new();
-        let first = order(entered, near, &mut |k| stack.push(k));
+        let first = first_by_entry(entered, near, farthest, |k| stack.push(k));
         std::iter::once(first)
             .chain(stack.into_iter().rev())
             .collect()
@@ -423,8 +405,8 @@ mod tests {
                 continue;
             }
             let near: [f32; WIDE] = std::array::from_fn(|_| (rng.next_f32() * 4.0).floor());
-            let nearest = visits(entered, &near, |e, n, p| nearest_first(e, n, p));
-            let farthest = visits(entered, &near, |e, n, p| farthest_first(e, n, p));
+            let nearest = visits(entered, &near, false);
+            let farthest = visits(entered, &near, true);
             for (got, ascending) in [(nearest, true), (farthest, false)] {
                 let mut sorted = got.clone();
                 sorted.sort_unstable();

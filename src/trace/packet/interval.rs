@@ -22,7 +22,7 @@ use crate::trace::culling::Frustum;
 #[cfg(doc)]
 use crate::trace::single::split_intervals;
 use crate::trace::single::{root_bounds, INTERVAL_EPS, STACK_DEPTH};
-use crate::trace::wide::{farthest_first, nearest_first};
+use crate::trace::wide::first_by_entry;
 
 /// Inner nodes a whole-packet traversal may visit before it hands its rays to the per-ray
 /// traversal: several times what a coherent primary packet visits, and far fewer than the
@@ -269,12 +269,9 @@ fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
                 w.store(f, &mut far[at..]);
             }
             if entered != 0 {
-                let push = |k: usize| stack.push((node.children[k], near[k], far[k]));
-                let first = if V::FARTHEST_FIRST {
-                    farthest_first(entered, &near, push)
-                } else {
-                    nearest_first(entered, &near, push)
-                };
+                let first = first_by_entry(entered, &near, V::FARTHEST_FIRST, |k| {
+                    stack.push((node.children[k], near[k], far[k]));
+                });
                 (child, t_enter, t_exit) = (node.children[first], near[first], far[first]);
                 continue;
             }

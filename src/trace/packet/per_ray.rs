@@ -116,23 +116,23 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
             far_mask &= u64::from(!far_empty).wrapping_neg();
             // Any-hit rays take the far child first ([`PacketVisitor::FARTHEST_FIRST`]).
             let take_near = near_mask != 0 && (far_mask == 0 || !V::FARTHEST_FIRST);
-            if take_near {
-                if far_mask != 0 {
-                    stack_node[top] = far;
-                    stack_mask[top] = far_mask;
+            let ((taken, taken_mask), (other, other_mask)) = if take_near {
+                ((near, near_mask), (far, far_mask))
+            } else {
+                ((far, far_mask), (near, near_mask))
+            };
+            if taken_mask != 0 {
+                if other_mask != 0 {
+                    stack_node[top] = other;
+                    stack_mask[top] = other_mask;
                     top += 1;
                 }
-                std::mem::swap(&mut t_exit, &mut near_exit);
-                (node_index, mask) = (near, near_mask);
-                descended = true;
-            } else if far_mask != 0 {
-                if near_mask != 0 {
-                    stack_node[top] = near;
-                    stack_mask[top] = near_mask;
-                    top += 1;
+                if take_near {
+                    std::mem::swap(&mut t_exit, &mut near_exit);
+                } else {
+                    std::mem::swap(&mut t_enter, &mut far_enter);
                 }
-                std::mem::swap(&mut t_enter, &mut far_enter);
-                (node_index, mask) = (far, far_mask);
+                (node_index, mask) = (taken, taken_mask);
                 descended = true;
             }
         } else {
