@@ -9,7 +9,7 @@ use kdbeam_kernels::{Aabb, Triangle, TriangleBlock};
 #[cfg(feature = "parallel")]
 use rayon::prelude::*;
 
-use super::{LeafRecord, Node, MAX_NODE_INDEX};
+use super::{pages, LeafRecord, Node, MAX_NODE_INDEX};
 use crate::{Error, Result};
 
 /// Leaf record 0 of every tree: the record all empty leaves share.
@@ -280,9 +280,9 @@ impl Layout {
     /// and each page's first write is a page fault. Address space only: pages are touched as
     /// used.
     pub fn reserve_for(&mut self, triangles: usize) {
-        self.nodes.reserve(2 * triangles);
-        self.records.reserve(triangles / 2);
-        self.ids.reserve(3 * triangles);
+        pages::reserve(&mut self.nodes, 2 * triangles);
+        pages::reserve(&mut self.records, triangles / 2);
+        pages::reserve(&mut self.ids, 3 * triangles);
     }
 
     /// Moves the final nodes and records into a tree's, swapping them (the layout keeps the
@@ -403,7 +403,7 @@ fn write_blocks(
         TriangleBlock::new(pad, run.iter().map(|&id| (triangles[id as usize], id)))
     };
     blocks.clear();
-    blocks.reserve(runs.len());
+    pages::reserve(blocks, runs.len());
     #[cfg(feature = "parallel")]
     blocks.par_extend(runs.par_iter().map(block));
     #[cfg(not(feature = "parallel"))]
@@ -414,5 +414,6 @@ fn write_blocks(
 #[cfg(feature = "parallel")]
 fn zeroed<T: Copy + Send + Sync>(out: &mut Vec<T>, len: usize, zero: T) {
     out.clear();
+    pages::reserve(out, len);
     out.par_extend(rayon::iter::repeat_n(zero, len));
 }

@@ -5,6 +5,7 @@ mod clip;
 mod events;
 mod layout;
 mod node;
+mod pages;
 mod refs;
 mod sah;
 mod stats;

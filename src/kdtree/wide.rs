@@ -16,7 +16,7 @@
 
 use kdbeam_kernels::{Aabb, Vec3};
 
-use super::{LeafRecord, Node};
+use super::{pages, LeafRecord, Node};
 
 /// Children per wide node.
 pub const WIDE: usize = 8;
@@ -232,7 +232,7 @@ impl BinaryBoxes for KdSubtrees<'_> {
 /// their parent in `nodes`, so one backward pass joins them.
 fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
     boxes.clear();
-    boxes.reserve(nodes.len());
+    pages::reserve(boxes, nodes.len());
     boxes.resize(nodes.len(), Aabb::EMPTY);
     for i in (0..nodes.len()).rev() {
         let node = nodes[i];

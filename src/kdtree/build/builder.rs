@@ -14,6 +14,7 @@ use super::ScratchPool;
 use super::{Context, Scratch, MAX_TRIANGLES};
 use crate::kdtree::layout::Layout;
 use crate::kdtree::node::mark_empty_children;
+use crate::kdtree::pages;
 use crate::kdtree::sah::{CostModel, COUNTED_SEARCH_MAX};
 use crate::kdtree::{BuildParams, BuildStats, KdTree, LeafRecord, Node};
 use crate::{Error, Mesh, Result};
@@ -277,6 +278,7 @@ fn count_leaves(nodes: &[Node], parallel: bool) -> usize {
 /// Replaces `out` with the triangles of `mesh`, by id (in parallel chunks when `parallel`).
 fn copy_triangles(mesh: &Mesh, out: &mut Vec<Triangle>, parallel: bool) {
     out.clear();
+    pages::reserve_exact(out, mesh.triangle_count());
     #[cfg(feature = "parallel")]
     if parallel {
         out.par_extend(

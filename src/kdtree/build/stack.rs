@@ -1,5 +1,6 @@
 //! The per-thread stack of references.
 
+use crate::kdtree::pages;
 use crate::kdtree::refs::Ref;
 
 /// The stack's first reservation, in references per triangle (address space: its pages are
@@ -12,6 +13,6 @@ pub(super) const STACK_PER_TRIANGLE: usize = 4;
 pub(super) fn reserve_stack(refs: &mut Vec<Ref>, len: usize) {
     if refs.capacity() < len {
         let capacity = len.max(2 * refs.capacity());
-        refs.reserve_exact(capacity - refs.len());
+        pages::reserve_exact(refs, capacity - refs.len());
     }
 }
