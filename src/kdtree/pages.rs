@@ -2,7 +2,7 @@
 //!
 //! A build writes most of its bytes (the triangle blocks above all) into memory it has just
 //! allocated, and the first write to each 4 KiB page is a page fault in which the kernel clears
-//! the page: on a large mesh, as much time as the build's own work. A buffer of at least
+//! the page: on a large mesh, a large share of a fresh build's time. A buffer of at least
 //! [`ADVISED_MIN_BYTES`] is therefore marked `MADV_HUGEPAGE` before it is written, so that a
 //! Linux kernel whose transparent huge pages are in `madvise` or `always` mode backs it with
 //! 2 MiB pages where it can: one fault where there were 512. Embree asks the same for its
@@ -25,7 +25,7 @@ pub(crate) fn reserve_exact<T>(v: &mut Vec<T>, additional: usize) {
 }
 
 /// Marks the pages wholly inside `v`'s spare capacity `MADV_HUGEPAGE`, if there are
-/// [`ADVISED_MIN_BYTES`] of it. The crate's one call into the system, hence its one `unsafe`.
+/// [`ADVISED_MIN_BYTES`] of it. The crate's only call into the system, hence its only `unsafe`.
 #[allow(unsafe_code)]
 fn advise_spare<T>(v: &mut Vec<T>) {
     #[cfg(target_os = "linux")]
