@@ -277,8 +277,8 @@ impl Layout {
     /// Makes room for the tree of `triangles` triangles as most meshes need it: about two
     /// nodes, two references and half a non-empty leaf per triangle (architectural scenes need
     /// more, and grow). Growing a long array would copy it into new pages,
-    /// and each page's first write is a page fault. Address space only: pages are touched as
-    /// used.
+    /// and each page's first write is a page fault. Address space only: pages (huge ones where
+    /// the kernel gives them, [`pages`]) are touched as used.
     pub fn reserve_for(&mut self, triangles: usize) {
         pages::reserve(&mut self.nodes, 2 * triangles);
         pages::reserve(&mut self.records, triangles / 2);

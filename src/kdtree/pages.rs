@@ -5,23 +5,31 @@
 //! the page: on a large mesh, a large share of a fresh build's time. A buffer of at least
 //! [`ADVISED_MIN_BYTES`] is therefore marked `MADV_HUGEPAGE` before it is written, so that a
 //! Linux kernel whose transparent huge pages are in `madvise` or `always` mode backs it with
-//! 2 MiB pages where it can: one fault where there were 512. Embree asks the same for its
-//! BVH's memory. Elsewhere, or where the kernel declines, nothing changes.
+//! 2 MiB pages where it can: one fault where there were 512. Embree's allocator makes the same
+//! request of its large allocations. Elsewhere, or where the kernel declines, nothing changes.
+//! Only memory a reservation newly allocates is marked: a rebuild into buffers already large
+//! enough makes no system call.
 
 /// Buffers smaller than this are not marked: they hold no whole huge page, or few.
 const ADVISED_MIN_BYTES: usize = 4 << 20;
 
 /// Reserves room for at least `additional` more elements in `v` ([`Vec::reserve`]), and asks
-/// for the room to be backed by huge pages when it is large.
+/// for the room to be backed by huge pages when it is newly allocated and large.
 pub(crate) fn reserve<T>(v: &mut Vec<T>, additional: usize) {
+    let capacity = v.capacity();
     v.reserve(additional);
-    advise_spare(v);
+    if v.capacity() != capacity {
+        advise_spare(v);
+    }
 }
 
 /// [`reserve`] with [`Vec::reserve_exact`].
 pub(crate) fn reserve_exact<T>(v: &mut Vec<T>, additional: usize) {
+    let capacity = v.capacity();
     v.reserve_exact(additional);
-    advise_spare(v);
+    if v.capacity() != capacity {
+        advise_spare(v);
+    }
 }
 
 /// Marks the pages wholly inside `v`'s spare capacity `MADV_HUGEPAGE`, if there are
@@ -88,7 +96,7 @@ mod tests {
     }
 
     #[test]
-    fn a_large_reservation_is_advised_and_a_small_one_is_not() {
+    fn a_large_reservation_is_advised_and_reservations_keep_their_contents() {
         let mut large: Vec<u64> = Vec::new();
         reserve(&mut large, 4 * ADVISED_MIN_BYTES / 8);
         assert!(large.capacity() >= 4 * ADVISED_MIN_BYTES / 8);
