@@ -15,6 +15,8 @@
 //! the padded box of every leaf that holds the triangle.
 
 use kdbeam_kernels::{Aabb, Vec3};
+#[cfg(feature = "parallel")]
+use rayon::prelude::*;
 
 use super::{pages, LeafRecord, Node};
 
@@ -124,15 +126,30 @@ impl WideNodes {
     /// Replaces the nodes with those of the kd-tree `nodes` (root first, depth first) whose
     /// leaves are `leaves`: each wide node opens, breadth first, the shallowest inner node
     /// among its children until it has [`WIDE`] of them or only leaves, each child with its
-    /// subtree's padded box, the leaves of no triangle dropped. `boxes` is a buffer for the subtrees' boxes, kept by the caller
-    /// from one build to the next.
-    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
-        subtree_boxes(nodes, leaves, boxes);
-        self.collapse(&KdSubtrees {
+    /// subtree's padded box, the leaves of no triangle dropped. `boxes` is a buffer for the
+    /// subtrees' boxes, kept by the caller from one build to the next. With `parallel`, a large
+    /// tree's boxes and nodes are made on `rayon`'s threads; the nodes are the same either way.
+    pub fn build(
+        &mut self,
+        nodes: &[Node],
+        leaves: &[LeafRecord],
+        boxes: &mut Vec<Aabb>,
+        parallel: bool,
+    ) {
+        #[cfg(feature = "parallel")]
+        let parallel = parallel && nodes.len() >= PARALLEL_MIN_NODES;
+        subtree_boxes(nodes, leaves, boxes, parallel);
+        let tree = KdSubtrees {
             nodes,
             leaves,
             boxes,
-        });
+        };
+        #[cfg(feature = "parallel")]
+        if parallel {
+            return self.collapse_in_parallel(&tree);
+        }
+        let _ = parallel;
+        self.collapse(&tree);
     }
 
     /// Replaces the nodes with those of the binary tree `tree`, at most 64 levels deep.
@@ -146,50 +163,140 @@ impl WideNodes {
     pub(crate) fn collapse(&mut self, tree: &impl BinaryBoxes) {
         self.nodes.clear();
         self.nodes.push(WideNode::NONE);
-        let mut work = vec![(0u32, 0usize)];
-        while let Some((root, at)) = work.pop() {
-            let mut slots = [(0u32, 0u32); WIDE];
-            let mut len = 0;
-            if !tree.bounds(root).is_empty() {
-                slots[0] = (root, 0);
-                len = 1;
-            }
-            while len < WIDE {
-                let shallowest = slots[..len]
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, &(n, _))| tree.children(n).is_some())
-                    .min_by_key(|(_, &(_, depth))| depth)
-                    .map(|(i, _)| i);
-                let Some(i) = shallowest else { break };
-                let (n, depth) = slots[i];
-                slots[i] = slots[len - 1];
-                len -= 1;
-                for child in tree.children(n).into_iter().flatten() {
-                    if !tree.bounds(child).is_empty() {
-                        slots[len] = (child, depth + 1);
-                        len += 1;
-                    }
-                }
-            }
-            let mut node = WideNode::NONE;
-            for (i, &(n, _)) in slots[..len].iter().enumerate() {
-                let b = tree.bounds(n);
-                for axis in 0..3 {
-                    node.planes[axis][i] = b.min[axis];
-                    node.planes[3 + axis][i] = b.max[axis];
-                }
-                node.children[i] = if tree.children(n).is_none() {
-                    WideChild::leaf(tree.leaf(n))
-                } else {
-                    let index = self.nodes.len();
-                    self.nodes.push(WideNode::NONE);
-                    work.push((n, index));
-                    WideChild::node(index as u32)
-                };
-            }
-            self.nodes[at] = node;
+        collapse_into(tree, 0, &mut self.nodes, None);
+    }
+
+    /// [`WideNodes::collapse`], the subtrees below the wide nodes of depth [`PARALLEL_DEPTH`]
+    /// collapsed in parallel, each into a buffer of its own, then moved into place.
+    #[cfg(feature = "parallel")]
+    fn collapse_in_parallel<T: BinaryBoxes + Sync>(&mut self, tree: &T) {
+        self.nodes.clear();
+        self.nodes.push(WideNode::NONE);
+        let mut deferred = Vec::new();
+        collapse_into(tree, 0, &mut self.nodes, Some(&mut deferred));
+        let subtrees: Vec<Vec<WideNode>> = deferred
+            .par_iter()
+            .map(|&(root, _)| {
+                let mut nodes = vec![WideNode::NONE];
+                collapse_into(tree, root, &mut nodes, None);
+                nodes
+            })
+            .collect();
+        // A subtree's root replaces its placeholder; its other nodes go after the top ones,
+        // node `i` of subtree `k` at `offsets[k] + i - 1`.
+        let top = self.nodes.len();
+        let mut offsets = Vec::with_capacity(subtrees.len());
+        let mut end = top;
+        for nodes in &subtrees {
+            offsets.push(end);
+            end += nodes.len() - 1;
         }
+        for ((&(_, slot), nodes), &offset) in deferred.iter().zip(&subtrees).zip(&offsets) {
+            self.nodes[slot] = nodes[0].shifted(offset - 1);
+        }
+        pages::reserve(&mut self.nodes, end - top);
+        self.nodes
+            .par_extend(rayon::iter::repeat_n(WideNode::NONE, end - top));
+        let mut places = Vec::with_capacity(subtrees.len());
+        let mut rest = &mut self.nodes[top..];
+        for nodes in &subtrees {
+            let (place, after) = std::mem::take(&mut rest).split_at_mut(nodes.len() - 1);
+            places.push(place);
+            rest = after;
+        }
+        subtrees
+            .par_iter()
+            .zip(places)
+            .zip(&offsets)
+            .for_each(|((nodes, place), &offset)| {
+                for (to, node) in place.iter_mut().zip(&nodes[1..]) {
+                    *to = node.shifted(offset - 1);
+                }
+            });
+    }
+}
+
+/// Trees of at least this many nodes get their wide nodes in parallel: below it, a thread's
+/// share is too small to pay for the hand-over.
+#[cfg(feature = "parallel")]
+pub(super) const PARALLEL_MIN_NODES: usize = 1 << 15;
+
+/// The depth of the wide nodes whose subtrees [`WideNodes::collapse_in_parallel`] collapses in
+/// parallel: up to `WIDE²` = 64 subtrees, enough for `rayon` to balance uneven ones.
+#[cfg(feature = "parallel")]
+const PARALLEL_DEPTH: u32 = 2;
+
+impl WideNode {
+    /// The node with the indices of its wide children raised by `by`.
+    #[cfg(feature = "parallel")]
+    fn shifted(mut self, by: usize) -> WideNode {
+        for child in &mut self.children {
+            if child.is_node() {
+                *child = WideChild::node(child.index() + by as u32);
+            }
+        }
+        self
+    }
+}
+
+/// Collapses the subtree of `tree`'s node `root` into `nodes`, whose last node is the
+/// subtree's wide root (still [`WideNode::NONE`]), as [`WideNodes::collapse`] describes;
+/// new wide nodes are pushed. With `deferred`, the wide nodes at depth [`PARALLEL_DEPTH`] below
+/// the root are left as placeholders, and each is listed with its binary root, to be collapsed
+/// later: `(binary root, wide index)`.
+fn collapse_into(
+    tree: &impl BinaryBoxes,
+    root: u32,
+    nodes: &mut Vec<WideNode>,
+    mut deferred: Option<&mut Vec<(u32, usize)>>,
+) {
+    let mut work = vec![(root, nodes.len() - 1, 0u32)];
+    while let Some((root, at, wide_depth)) = work.pop() {
+        let mut slots = [(0u32, 0u32); WIDE];
+        let mut len = 0;
+        if !tree.bounds(root).is_empty() {
+            slots[0] = (root, 0);
+            len = 1;
+        }
+        while len < WIDE {
+            let shallowest = slots[..len]
+                .iter()
+                .enumerate()
+                .filter(|(_, &(n, _))| tree.children(n).is_some())
+                .min_by_key(|(_, &(_, depth))| depth)
+                .map(|(i, _)| i);
+            let Some(i) = shallowest else { break };
+            let (n, depth) = slots[i];
+            slots[i] = slots[len - 1];
+            len -= 1;
+            for child in tree.children(n).into_iter().flatten() {
+                if !tree.bounds(child).is_empty() {
+                    slots[len] = (child, depth + 1);
+                    len += 1;
+                }
+            }
+        }
+        let mut node = WideNode::NONE;
+        for (i, &(n, _)) in slots[..len].iter().enumerate() {
+            let b = tree.bounds(n);
+            for axis in 0..3 {
+                node.planes[axis][i] = b.min[axis];
+                node.planes[3 + axis][i] = b.max[axis];
+            }
+            node.children[i] = if tree.children(n).is_none() {
+                WideChild::leaf(tree.leaf(n))
+            } else {
+                let index = nodes.len();
+                nodes.push(WideNode::NONE);
+                match deferred.as_deref_mut() {
+                    #[cfg(feature = "parallel")]
+                    Some(later) if wide_depth + 1 == PARALLEL_DEPTH => later.push((n, index)),
+                    _ => work.push((n, index, wide_depth + 1)),
+                }
+                WideChild::node(index as u32)
+            };
+        }
+        nodes[at] = node;
     }
 }
 
@@ -229,24 +336,68 @@ impl BinaryBoxes for KdSubtrees<'_> {
 }
 
 /// Replaces `boxes` with the padded box of every subtree's leaves, by node: children follow
-/// their parent in `nodes`, so one backward pass joins them.
-fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
+/// their parent in `nodes`, so one backward pass joins them; with `parallel`, the two
+/// subtrees of a large node are joined side by side (a subtree's nodes are contiguous, depth
+/// first).
+fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>, parallel: bool) {
     boxes.clear();
     pages::reserve(boxes, nodes.len());
+    #[cfg(feature = "parallel")]
+    if parallel {
+        boxes.par_extend(rayon::iter::repeat_n(Aabb::EMPTY, nodes.len()));
+        join_boxes_in_parallel(nodes, leaves, 0, boxes);
+        return;
+    }
+    let _ = parallel;
     boxes.resize(nodes.len(), Aabb::EMPTY);
-    for i in (0..nodes.len()).rev() {
-        let node = nodes[i];
-        boxes[i] = if node.is_leaf() {
-            let leaf = &leaves[node.leaf_record() as usize];
-            match (leaf.count, leaf.bounds.is_empty()) {
-                (0, _) => Aabb::EMPTY,
-                // The builder never makes this; were it to, the leaf would stay reachable.
-                (_, true) => Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY),
-                (_, false) => padded(leaf.bounds),
-            }
+    join_boxes(nodes, leaves, 0, boxes);
+}
+
+/// Writes the box of every node of the subtree whose nodes are `nodes[first..][..out.len()]`
+/// to `out`, by one backward pass; returns the subtree's box.
+fn join_boxes(nodes: &[Node], leaves: &[LeafRecord], first: usize, out: &mut [Aabb]) -> Aabb {
+    for i in (0..out.len()).rev() {
+        let node = nodes[first + i];
+        out[i] = if node.is_leaf() {
+            leaf_box(&leaves[node.leaf_record() as usize])
         } else {
-            boxes[i + 1].union(boxes[node.above_child() as usize])
+            out[i + 1].union(out[node.above_child() as usize - first])
         };
+    }
+    out.first().copied().unwrap_or(Aabb::EMPTY)
+}
+
+/// [`join_boxes`], the two subtrees of a node of at least [`PARALLEL_MIN_NODES`] nodes
+/// joined in parallel.
+#[cfg(feature = "parallel")]
+fn join_boxes_in_parallel(
+    nodes: &[Node],
+    leaves: &[LeafRecord],
+    first: usize,
+    out: &mut [Aabb],
+) -> Aabb {
+    let node = nodes[first];
+    if out.len() < PARALLEL_MIN_NODES || node.is_leaf() {
+        return join_boxes(nodes, leaves, first, out);
+    }
+    let above = node.above_child() as usize;
+    let (own, rest) = out.split_at_mut(1);
+    let (below_out, above_out) = rest.split_at_mut(above - first - 1);
+    let (below, above) = rayon::join(
+        || join_boxes_in_parallel(nodes, leaves, first + 1, below_out),
+        || join_boxes_in_parallel(nodes, leaves, above, above_out),
+    );
+    own[0] = below.union(above);
+    own[0]
+}
+
+/// A leaf's padded box: empty for a leaf of no triangle.
+fn leaf_box(leaf: &LeafRecord) -> Aabb {
+    match (leaf.count, leaf.bounds.is_empty()) {
+        (0, _) => Aabb::EMPTY,
+        // The builder never makes this; were it to, the leaf would stay reachable.
+        (_, true) => Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY),
+        (_, false) => padded(leaf.bounds),
     }
 }
 

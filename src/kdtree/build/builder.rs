@@ -241,7 +241,8 @@ impl KdTreeBuilder {
             mesh_triangles,
         );
         mark_empty_children(&mut tree.nodes, &tree.leaves);
-        tree.wide.build(&tree.nodes, &tree.leaves, subtree_boxes);
+        tree.wide
+            .build(&tree.nodes, &tree.leaves, subtree_boxes, parallel);
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         tree.triangle_boxes = OnceLock::new();

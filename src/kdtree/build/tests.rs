@@ -3,7 +3,7 @@
 use kdbeam_kernels::Isa;
 
 use super::classify::sides_of;
-use crate::kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder};
+use crate::kdtree::{BuildParams, BuildStats, KdTree, KdTreeBuilder, WideNode};
 use crate::Mesh;
 
 /// A seeded soup of `n` small triangles in the unit cube (a local LCG: the scene
@@ -27,7 +27,30 @@ fn soup(n: usize, seed: u64) -> Mesh {
 }
 
 fn same_tree(a: &KdTree, b: &KdTree) -> bool {
-    a.nodes == b.nodes && a.leaves == b.leaves && a.blocks == b.blocks
+    a.nodes == b.nodes
+        && a.leaves == b.leaves
+        && a.blocks == b.blocks
+        && same_wide(a.wide.nodes(), b.wide.nodes())
+}
+
+/// Whether two sets of wide nodes are the same tree: from the roots down, the same boxes and
+/// leaves in the same slots, whatever the order of the nodes in their arrays.
+fn same_wide(a: &[WideNode], b: &[WideNode]) -> bool {
+    let mut work = vec![(0, 0)];
+    while let Some((i, j)) = work.pop() {
+        let (x, y) = (&a[i], &b[j]);
+        if x.planes != y.planes {
+            return false;
+        }
+        for (&c, &d) in x.children.iter().zip(&y.children) {
+            match (c.is_node(), d.is_node()) {
+                (true, true) => work.push((c.index() as usize, d.index() as usize)),
+                (false, false) if c == d => {}
+                _ => return false,
+            }
+        }
+    }
+    a.len() == b.len()
 }
 
 /// The stats but for the build time.
@@ -138,6 +161,7 @@ fn one_thread_and_many_threads_build_the_same_tree() {
     ];
     assert!(meshes[1].triangle_count() > 2 * super::parallel::PARALLEL_NODE_MIN);
     assert!(meshes[2].triangle_count() > super::parallel::PARALLEL_NODE_MIN);
+    let mut wide_in_parallel = false;
     let pool = |threads| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -153,6 +177,7 @@ fn one_thread_and_many_threads_build_the_same_tree() {
             };
             let serial = one.install(|| KdTree::build(mesh, &params).unwrap());
             assert!(serial.stats.nodes > 1000, "{}", serial.stats);
+            wide_in_parallel |= serial.stats.nodes >= crate::kdtree::wide::PARALLEL_MIN_NODES;
             for (threads, pool) in [(2, &two), (4, &four)] {
                 let parallel = pool.install(|| KdTree::build(mesh, &params).unwrap());
                 assert!(
@@ -171,4 +196,8 @@ fn one_thread_and_many_threads_build_the_same_tree() {
             );
         }
     }
+    assert!(
+        wide_in_parallel,
+        "no tree large enough for parallel wide nodes"
+    );
 }
