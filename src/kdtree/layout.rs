@@ -321,9 +321,9 @@ impl Layout {
         self.runs(Counts::default(), &mut runs);
         // Written twice (zeroed, then copied), so that the pages are faulted in by every
         // thread, not just this one.
-        zeroed(nodes, self.virtual_nodes(), Node::leaf(0));
-        zeroed(leaves, self.virtual_records(), EMPTY_RECORD);
-        zeroed(ids, self.virtual_ids(), 0);
+        pages::zeroed(nodes, self.virtual_nodes(), Node::leaf(0));
+        pages::zeroed(leaves, self.virtual_records(), EMPTY_RECORD);
+        pages::zeroed(ids, self.virtual_ids(), 0);
         let mut places = Vec::with_capacity(runs.len());
         let (mut nodes_left, mut leaves_left, mut ids_left) =
             (&mut nodes[..], &mut leaves[1..], &mut ids[..]);
@@ -408,12 +408,4 @@ fn write_blocks(
     blocks.par_extend(runs.par_iter().map(block));
     #[cfg(not(feature = "parallel"))]
     blocks.extend(runs.iter().map(block));
-}
-
-/// Replaces `out` with `len` copies of `zero`, written in parallel.
-#[cfg(feature = "parallel")]
-fn zeroed<T: Copy + Send + Sync>(out: &mut Vec<T>, len: usize, zero: T) {
-    out.clear();
-    pages::reserve(out, len);
-    out.par_extend(rayon::iter::repeat_n(zero, len));
 }

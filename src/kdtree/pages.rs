@@ -32,6 +32,16 @@ pub(crate) fn reserve_exact<T>(v: &mut Vec<T>, additional: usize) {
     }
 }
 
+/// Replaces `out` with `len` copies of `zero`, written in parallel, so that every thread
+/// faults in its share of the pages rather than the one that reads them next.
+#[cfg(feature = "parallel")]
+pub(crate) fn zeroed<T: Copy + Send + Sync>(out: &mut Vec<T>, len: usize, zero: T) {
+    use rayon::prelude::*;
+    out.clear();
+    reserve(out, len);
+    out.par_extend(rayon::iter::repeat_n(zero, len));
+}
+
 /// Marks the pages wholly inside `v`'s spare capacity `MADV_HUGEPAGE`, if there are
 /// [`ADVISED_MIN_BYTES`] of it. The crate's only call into the system, hence its only `unsafe`.
 #[allow(unsafe_code)]

@@ -127,17 +127,14 @@ impl WideNodes {
     /// leaves are `leaves`: each wide node opens, breadth first, the shallowest inner node
     /// among its children until it has [`WIDE`] of them or only leaves, each child with its
     /// subtree's padded box, the leaves of no triangle dropped. `boxes` is a buffer for the
-    /// subtrees' boxes, kept by the caller from one build to the next. With `parallel`, a large
-    /// tree's boxes and nodes are made on `rayon`'s threads; the nodes are the same either way.
-    pub fn build(
-        &mut self,
-        nodes: &[Node],
-        leaves: &[LeafRecord],
-        boxes: &mut Vec<Aabb>,
-        parallel: bool,
-    ) {
+    /// subtrees' boxes, kept by the caller from one build to the next. A large tree's boxes
+    /// and nodes are made on `rayon`'s threads, when there are more than one; the nodes are the
+    /// same either way.
+    pub fn build(&mut self, nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>) {
         #[cfg(feature = "parallel")]
-        let parallel = parallel && nodes.len() >= PARALLEL_MIN_NODES;
+        let parallel = rayon::current_num_threads() > 1 && nodes.len() >= PARALLEL_MIN_NODES;
+        #[cfg(not(feature = "parallel"))]
+        let parallel = false;
         subtree_boxes(nodes, leaves, boxes, parallel);
         let tree = KdSubtrees {
             nodes,
@@ -148,7 +145,6 @@ impl WideNodes {
         if parallel {
             return self.collapse_in_parallel(&tree);
         }
-        let _ = parallel;
         self.collapse(&tree);
     }
 
@@ -340,15 +336,15 @@ impl BinaryBoxes for KdSubtrees<'_> {
 /// subtrees of a large node are joined side by side (a subtree's nodes are contiguous, depth
 /// first).
 fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>, parallel: bool) {
-    boxes.clear();
-    pages::reserve(boxes, nodes.len());
     #[cfg(feature = "parallel")]
     if parallel {
-        boxes.par_extend(rayon::iter::repeat_n(Aabb::EMPTY, nodes.len()));
+        pages::zeroed(boxes, nodes.len(), Aabb::EMPTY);
         join_boxes_in_parallel(nodes, leaves, 0, boxes);
         return;
     }
     let _ = parallel;
+    boxes.clear();
+    pages::reserve(boxes, nodes.len());
     boxes.resize(nodes.len(), Aabb::EMPTY);
     join_boxes(nodes, leaves, 0, boxes);
 }

@@ -241,8 +241,7 @@ impl KdTreeBuilder {
             mesh_triangles,
         );
         mark_empty_children(&mut tree.nodes, &tree.leaves);
-        tree.wide
-            .build(&tree.nodes, &tree.leaves, subtree_boxes, parallel);
+        tree.wide.build(&tree.nodes, &tree.leaves, subtree_boxes);
         tree.bounds = bounds;
         tree.mesh_triangles = n;
         tree.triangle_boxes = OnceLock::new();
