@@ -20,7 +20,7 @@
 //!
 //! The brute force skips the triangles whose padded box a ray's line misses
 //! ([`BruteForce`]), with the same hits as testing them all (checked in the library's own
-//! tests), so that the shared scenes take minutes, not hours, on a slow machine.
+//! tests), so that the oracle's exhaustive search does not dominate the test's time.
 
 mod common;
 

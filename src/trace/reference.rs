@@ -3,9 +3,8 @@
 //! These are for tests and the accuracy benchmark, not for speed: the brute force is
 //! O(triangles) per ray.
 
-use glam::DVec3;
 use kdbeam_kernels::intersect::oracle::OracleRay;
-use kdbeam_kernels::{Ray, Triangle};
+use kdbeam_kernels::{DVec3, Ray, Triangle};
 
 use super::single::{self, LeafEntry, LeafVisitor};
 use crate::kdtree::KdTree;
@@ -79,6 +78,10 @@ pub struct BruteForce<'m> {
     boxes: Vec<(DVec3, DVec3, f64)>,
 }
 
+/// [`BruteForce`]'s padding of a triangle's box, relative to the largest coordinate magnitude
+/// of the box and the ray's origin.
+const BOX_PAD: f64 = 1.0 / (1u64 << 30) as f64;
+
 impl<'m> BruteForce<'m> {
     /// The boxes of `mesh`'s triangles, for [`BruteForce::closest`].
     #[must_use]
@@ -108,7 +111,7 @@ impl<'m> BruteForce<'m> {
             .iter()
             .enumerate()
             .filter(|(_, &(lo, hi, magnitude))| {
-                let pad = DVec3::splat(magnitude.max(o_magnitude) * (1.0 / (1u64 << 30) as f64));
+                let pad = DVec3::splat(magnitude.max(o_magnitude) * BOX_PAD);
                 line_meets_box(o, d, inv, lo - pad, hi + pad)
             });
         closest_among(ray, candidates.map(|(id, _)| (id, self.mesh.triangle(id))))
@@ -184,9 +187,10 @@ mod tests {
     use crate::scene::procedural::builtin;
     use crate::Vec3;
 
-    /// Rays the padding must not lose hits of: random ones, axis-parallel ones through every
-    /// vertex (zero direction components, lines on box faces), lines in a triangle's plane
-    /// along its edges (grazing), origins on the surface, and origins far away.
+    /// Rays the padding must not lose hits of: random ones and, for every seventh triangle (at
+    /// most 300), axis-parallel ones through two of its vertices (zero direction components,
+    /// lines on box faces, one from far away), the line of one edge (grazing), one from its
+    /// centroid (an origin on the surface) and one from far along its normal.
     fn hard_rays(mesh: &Mesh) -> Vec<Ray> {
         let b = mesh.bounds();
         let mut rays = random_rays(&b, 2000, 7);
