@@ -237,7 +237,13 @@ fn untraceable_rays_are_inactive_lanes_and_disturb_no_other_lane() {
             for (i, hit) in hits.iter().enumerate() {
                 if i == good_lane {
                     assert_eq!(hit.triangle, 0, "width {width}: the good ray hits");
-                    assert_eq!(hit.t, 1.0, "width {width}: at z = 1, exactly");
+                    // Not exactly 1: Embree's AVX2 kernels divide by a refined reciprocal
+                    // estimate, which lands an ulp short of z = 1 (0.99999994).
+                    assert!(
+                        (hit.t - 1.0).abs() <= T_TOLERANCE,
+                        "width {width}: at z = 1, within rounding: {}",
+                        hit.t
+                    );
                 } else {
                     assert_eq!(*hit, Hit::NONE, "width {width}: lane {i} ({:?})", rays[i]);
                 }
