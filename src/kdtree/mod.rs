@@ -17,7 +17,7 @@ use std::sync::OnceLock;
 
 use kdbeam_kernels::raybox::BoxBlock;
 use kdbeam_kernels::triangle::BLOCK;
-use kdbeam_kernels::{Aabb, KsTriangle, Triangle, TriangleBlock};
+use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle, TriangleBlock};
 
 pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
@@ -48,7 +48,8 @@ pub struct BuildParams {
     /// horizontal axis of Reshetov's Figs. 7–9. Larger values split more: bigger trees, smaller
     /// leaves. Must be finite and > 0. The default, 0.05, serves primary and shadow rays on one
     /// tree: culled packets want fewer nodes than the unculled SAH optimum (0.03 is fastest for
-    /// camera rays on the bunny and the dragon, 0.1–1.5 on sponza), single rays more;
+    /// camera rays on the bunny and the dragon, 0.1–1.5 on sponza), single rays more
+    /// ([`BuildParams::for_incoherent_rays`]);
     /// docs/benchmarks.md ("Defaults") has what it costs each kind of ray on each shared scene.
     pub ci_over_ct: f32,
     /// Fraction by which the SAH cost of a split is reduced when one side is empty, in `[0, 1)`.
@@ -145,6 +146,39 @@ impl BuildParams {
         }
         Ok(())
     }
+
+    /// The build for incoherent rays traced on `isa`: ambient-occlusion and diffuse rays,
+    /// random rays, rays traced one by one.
+    ///
+    /// A single ray tests a leaf's triangles a vector of [`Isa::width`] at a time, and the
+    /// default's large leaves (made for beams that cull most of a leaf for a whole packet)
+    /// cost it several vectors per leaf. On ISAs of fewer than 16 lanes this returns the
+    /// default with [`ci_over_ct`](BuildParams::ci_over_ct) set to
+    /// [`INCOHERENT_CI_OVER_CT`](BuildParams::INCOHERENT_CI_OVER_CT), about a quarter of the
+    /// tests per ray; on 16 AVX-512 lanes, where the smaller leaves ran no faster, the default
+    /// itself. docs/benchmarks.md ("A tree for incoherent rays") has what each costs. Camera
+    /// rays and shadow rays traced in pixel tiles stay fastest on the default tree, so a
+    /// renderer that traces both kinds builds two trees.
+    ///
+    /// ```
+    /// use kdbeam::{BuildParams, Isa};
+    ///
+    /// let avx2 = BuildParams::for_incoherent_rays(Isa::Avx2);
+    /// assert_eq!(avx2.ci_over_ct, BuildParams::INCOHERENT_CI_OVER_CT);
+    /// assert_eq!(BuildParams::for_incoherent_rays(Isa::Avx512), BuildParams::default());
+    /// ```
+    #[must_use]
+    pub fn for_incoherent_rays(isa: Isa) -> Self {
+        if isa.width() >= 16 {
+            BuildParams::default()
+        } else {
+            BuildParams::default().with_ci_over_ct(Self::INCOHERENT_CI_OVER_CT)
+        }
+    }
+
+    /// The SAH cost ratio of [`BuildParams::for_incoherent_rays`] on ISAs of fewer than 16
+    /// lanes.
+    pub const INCOHERENT_CI_OVER_CT: f32 = 0.3;
 
     /// The depth limit for `triangles` triangles.
     #[must_use]
