@@ -127,3 +127,67 @@ fn synthetic_prints_the_baseline_once_when_asked_for_it() {
         .collect();
     assert_eq!(cullings, ["\"none\"", "\"4plane\""], "{stdout}");
 }
+
+#[test]
+fn ambient_occlusion_gets_its_own_tree_and_the_same_picture() {
+    // On four lanes the AO rays default to the tree for incoherent rays (ci_over_ct 0.3);
+    // given the primary rays' own ratio, they share its tree. Any-hit answers do not depend
+    // on the tree, so the pictures are the same to the byte.
+    let render = |ao_ci: Option<&str>| {
+        let png = TempFile::new("ao.png");
+        let mut args = vec![
+            "render", "--shade", "ao", "--size", "48x32", "--isa", "portable",
+        ];
+        args.extend(["--out", png.path().to_str().unwrap()]);
+        if let Some(ci) = ao_ci {
+            args.extend(["--ao-ci-over-ct", ci]);
+        }
+        let stdout = String::from_utf8_lossy(&kdbeam(&args).stdout).into_owned();
+        (stdout, std::fs::read(&png).expect("render wrote the PNG"))
+    };
+    let (own, own_png) = render(None);
+    assert!(
+        own.contains("kd-tree    for ao rays (ci_over_ct 0.3)"),
+        "{own}"
+    );
+    let (shared, shared_png) = render(Some("0.05"));
+    assert!(!shared.contains("for ao rays"), "{shared}");
+    assert!(shared.lines().any(|l| l.starts_with("ao ")), "{shared}");
+    assert!(own_png == shared_png, "the AO tree changed the picture");
+}
+
+#[test]
+fn bench_measures_each_kind_of_ray_on_its_default_tree() {
+    let trees = |rays: &str, isa: &str| {
+        let out = kdbeam(&[
+            "bench",
+            "builtin:icosphere",
+            "--rays",
+            rays,
+            "--packet",
+            "1",
+            "--isa",
+            isa,
+            "--culling",
+            "none",
+            "--size",
+            "8x8",
+            "--reps",
+            "1",
+            "--json",
+        ]);
+        let mut ci: Vec<String> = String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .map(|l| {
+                serde_json::from_str::<serde_json::Value>(l).unwrap()["ci_over_ct"].to_string()
+            })
+            .collect();
+        ci.dedup();
+        ci
+    };
+    assert_eq!(trees("primary", "scalar,portable"), ["0.05"]);
+    assert_eq!(trees("shadow", "portable"), ["0.05"]);
+    assert_eq!(trees("ao", "scalar,portable"), ["0.3"]);
+    assert_eq!(trees("diffuse", "portable"), ["0.3"]);
+    assert_eq!(trees("random", "portable"), ["0.3"]);
+}

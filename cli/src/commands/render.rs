@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use kdbeam::rays::secondary::{light, SecondaryRays, Workload, DEFAULT_AO_RAYS};
 use kdbeam::trace::{Culling, PacketCounters};
-use kdbeam::{Isa, KdTree, Mesh, Tracer};
+use kdbeam::{BuildParams, Isa, KdTree, Mesh, Tracer};
 use kdbeam_cli::render::{self, Frame, Light, SEED};
 use kdbeam_cli::Result;
 
@@ -47,6 +47,11 @@ pub(crate) struct RenderArgs {
     /// Ambient-occlusion rays per primary hit (`--shade ao`).
     #[arg(long, default_value_t = DEFAULT_AO_RAYS, value_parser = clap::value_parser!(u32).range(1..=64))]
     ao_rays: u32,
+    /// SAH cost ratio of the tree the ambient-occlusion rays are traced on (default: the
+    /// library's tree for incoherent rays on the tracer's ISA, 0.3 below 16 lanes; on
+    /// AVX-512 the primary rays' tree). Equal to `--ci-over-ct`, one tree serves both.
+    #[arg(long)]
+    ao_ci_over_ct: Option<f32>,
     /// Also draw heat maps of ray–triangle tests per pixel next to the picture: without
     /// culling, then with the chosen culling, on one log scale.
     #[arg(long)]
@@ -158,7 +163,20 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
                 ),
             );
         }
-        let mut image = shade(&args, &tracer, &mesh, &frame)?;
+        let ao_tree = ao_tree(&args, &mesh, tracer.isa())?;
+        let ao_tracer = match &ao_tree {
+            Some((tree, ci_over_ct)) => {
+                let ci_over_ct = *ci_over_ct;
+                let sah_cost = tree.sah_cost(ci_over_ct);
+                println!(
+                    "kd-tree    for ao rays (ci_over_ct {ci_over_ct}): {}, SAH cost {sah_cost:.2}",
+                    tree.stats()
+                );
+                self::tracer(tree, &args)?
+            }
+            None => tracer,
+        };
+        let mut image = shade(&args, &tracer, &ao_tracer, &mesh, &frame)?;
         if args.heatmap {
             // Tests per pixel without culling, then with this tracer's culling, on one scale.
             let unculled = tracer.with_culling(Culling::NONE);
@@ -174,11 +192,32 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
     })
 }
 
+/// The tree of the ambient-occlusion rays and its SAH cost ratio, where `args` asks for them
+/// and for a tree other than the primary rays' (see [`BuildParams::for_incoherent_rays`]).
+fn ao_tree(args: &RenderArgs, mesh: &Mesh, isa: Isa) -> Result<Option<(KdTree, f32)>> {
+    if args.shade != Shade::Ao {
+        return Ok(None);
+    }
+    let ci_over_ct = args
+        .ao_ci_over_ct
+        .unwrap_or(BuildParams::for_incoherent_rays(isa).ci_over_ct);
+    if ci_over_ct == args.tree.ci_over_ct {
+        return Ok(None);
+    }
+    let tree_args = TreeArgs {
+        ci_over_ct,
+        ..args.tree.clone()
+    };
+    Ok(Some((build_tree(mesh, &tree_args)?, ci_over_ct)))
+}
+
 /// The picture of `frame` as `args.shade` asks: secondary rays traced from its primary hits
-/// (their throughput printed), then shaded.
+/// (their throughput printed), shadow rays by `tracer`, ambient-occlusion rays by
+/// `ao_tracer`, then shaded.
 fn shade(
     args: &RenderArgs,
     tracer: &Tracer<'_>,
+    ao_tracer: &Tracer<'_>,
     mesh: &Mesh,
     frame: &Frame,
 ) -> Result<render::Image> {
@@ -189,12 +228,12 @@ fn shade(
     let pixels = frame.hits.len();
     let mut visible = vec![1.0f32; pixels];
     let mut ambient = vec![1.0f32; pixels];
-    let mut workloads = vec![(Workload::Shadow, &mut visible)];
+    let mut workloads = vec![(Workload::Shadow, tracer, &mut visible)];
     if args.shade == Shade::Ao {
         let ao = Workload::AmbientOcclusion { rays: args.ao_rays };
-        workloads.push((ao, &mut ambient));
+        workloads.push((ao, ao_tracer, &mut ambient));
     }
-    for (workload, share) in workloads {
+    for (workload, tracer, share) in workloads {
         let rays = SecondaryRays::new(workload, mesh, camera, &frame.hits, SEED)?;
         let (occluded, seconds, counters) = render::trace_occlusion(tracer, &rays, camera);
         let per_hit = 1.0 / workload.rays_per_hit() as f32;

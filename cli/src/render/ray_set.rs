@@ -2,7 +2,7 @@
 
 use kdbeam::rays::secondary::{SecondaryRays, Workload};
 use kdbeam::rays::{random_rays, Camera};
-use kdbeam::{Mesh, Ray, Result, Tracer};
+use kdbeam::{BuildParams, Isa, Mesh, Ray, Result, Tracer};
 
 /// Which rays a measurement traces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
@@ -42,6 +42,16 @@ impl RaySet {
             RaySet::Shadow => Some(Workload::Shadow),
             RaySet::Ao => Some(Workload::AmbientOcclusion { rays: ao_rays }),
             RaySet::Diffuse => Some(Workload::Diffuse),
+        }
+    }
+
+    /// The tree these rays are traced on by default on `isa`: [`BuildParams::default`] for
+    /// camera rays and shadow rays (coherent in pixel tiles: beams cull most of a large
+    /// leaf), [`BuildParams::for_incoherent_rays`] for random, AO and diffuse rays.
+    pub fn build_params(self, isa: Isa) -> BuildParams {
+        match self {
+            RaySet::Primary | RaySet::Shadow => BuildParams::default(),
+            RaySet::Random | RaySet::Ao | RaySet::Diffuse => BuildParams::for_incoherent_rays(isa),
         }
     }
 
