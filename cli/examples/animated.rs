@@ -29,7 +29,7 @@ use clap::Parser;
 use glam::{Affine3A, Quat};
 use kdbeam::scene::procedural::{terrain, terrain_height};
 use kdbeam::scene::world::{Query, SceneHit};
-use kdbeam::{Aabb, Camera, InstanceId, PacketShape, Ray, RayPacket, Scene, Vec3};
+use kdbeam::{Aabb, BuildParams, Camera, InstanceId, PacketShape, Ray, RayPacket, Scene, Vec3};
 use kdbeam_cli::render::{parse_size, Image};
 use kdbeam_cli::scenes::{load_scene, shared_scene};
 use rayon::prelude::*;
@@ -65,6 +65,9 @@ struct Args {
     /// tile packets.
     #[arg(long)]
     single_rays: bool,
+    /// SAH cost ratio of the meshes' kd-trees (default: `BuildParams::default`'s).
+    #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
+    ci_over_ct: f32,
     /// Also trace the same scene with Embree (needs `--features embree`).
     #[arg(long)]
     embree: bool,
@@ -152,6 +155,7 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
 
     let start = Instant::now();
     let mut scene = Scene::new();
+    scene.set_build_params(BuildParams::default().with_ci_over_ct(args.ci_over_ct))?;
     let prototype = scene.add_prototype(mesh.clone())?;
     scene.add_mesh(ground.clone())?;
     let ids = walkers
