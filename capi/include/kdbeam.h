@@ -92,6 +92,39 @@
 typedef struct KdbeamScene KdbeamScene;
 
 /**
+ * The kd-tree build parameters of a scene's meshes (`kdbeam_scene_set_build_params`).
+ * Fill one with `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays`
+ * and change what you need.
+ */
+typedef struct {
+  /**
+   * The cost of a ray–triangle test over that of a traversal step: larger values build
+   * bigger trees with smaller leaves. Finite and > 0. The default (0.05) serves camera and
+   * shadow rays, which trace in packets; single incoherent rays want more
+   * (`kdbeam_build_params_for_incoherent_rays`).
+   */
+  float ci_over_ct;
+  /**
+   * The fraction by which a split's cost is reduced when one side is empty, in `[0, 1)`.
+   */
+  float empty_bonus;
+  /**
+   * The deepest a tree may grow, at most 64; 0 for the default rule, `8 + 1.3·log2(N)` for
+   * `N` triangles.
+   */
+  uint32_t max_depth;
+  /**
+   * Nodes with at most this many triangles become leaves (at least 1).
+   */
+  uint32_t leaf_size;
+  /**
+   * Nodes with at most this many triangles choose their split exactly, larger ones among
+   * binned candidates: lower builds faster, with slightly costlier trees.
+   */
+  uint32_t exact_search_max;
+} KdbeamBuildParams;
+
+/**
  * A ray `org + t·dir` over `[tnear, tfar]`. `dir` need not be normalised; `tfar` may be
  * `INFINITY`.
  */
@@ -243,6 +276,49 @@ int kdbeam_scene_remove_instance(KdbeamScene *scene, uint32_t instance);
  * `scene` is NULL or a live scene.
  */
 int kdbeam_scene_commit(KdbeamScene *scene);
+
+/**
+ * Writes the default build parameters to `*params`: the trees `kdbeam_scene_new` builds.
+ * Returns 0, or `KDBEAM_ERROR_NULL_POINTER`.
+ *
+ * # Safety
+ * `params` is NULL or points to a writable `KdbeamBuildParams`.
+ */
+int kdbeam_build_params_default(KdbeamBuildParams *params);
+
+/**
+ * Writes to `*params` the build parameters for a scene traced mostly by single incoherent
+ * rays (ambient occlusion, diffuse bounces, rays from anywhere) on the ISA `scene` traces
+ * with: smaller leaves than the default below 16 SIMD lanes, the default on AVX-512. Returns
+ * 0, or `KDBEAM_ERROR_NULL_POINTER`.
+ *
+ * # Safety
+ * `scene` is NULL or a live scene; `params` is NULL or points to a writable
+ * `KdbeamBuildParams`.
+ */
+int kdbeam_build_params_for_incoherent_rays(const KdbeamScene *scene, KdbeamBuildParams *params);
+
+/**
+ * Writes the scene's build parameters to `*params`. Returns 0, or
+ * `KDBEAM_ERROR_NULL_POINTER`.
+ *
+ * # Safety
+ * `scene` is NULL or a live scene; `params` is NULL or points to a writable
+ * `KdbeamBuildParams`.
+ */
+int kdbeam_scene_get_build_params(const KdbeamScene *scene, KdbeamBuildParams *params);
+
+/**
+ * Sets the build parameters of the scene's meshes; the next commit rebuilds every mesh's tree
+ * with them. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_INVALID_ARGUMENT` for a
+ * value out of its range (a NaN or non-positive `ci_over_ct`, an `empty_bonus` outside
+ * `[0, 1)`, a `max_depth` above 64, a `leaf_size` of 0), which leaves the scene unchanged.
+ * Must not overlap any other call on this scene.
+ *
+ * # Safety
+ * `scene` is NULL or a live scene; `params` is NULL or points to a `KdbeamBuildParams`.
+ */
+int kdbeam_scene_set_build_params(KdbeamScene *scene, const KdbeamBuildParams *params);
 
 /**
  * Writes the closest hit of `*ray` in the committed scene to `*hit`: a miss (`t = INFINITY`,

@@ -13,7 +13,7 @@ use std::slice;
 
 use glam::Affine3A;
 use kdbeam::scene::world::{InstanceId, Query, Scene, SceneHit};
-use kdbeam::{GeometryId, Mesh, Ray, Vec3};
+use kdbeam::{BuildParams, GeometryId, Mesh, Ray, Vec3};
 
 use last_error::{guard, Failure};
 
@@ -42,6 +42,52 @@ pub const KDBEAM_ERROR_INTERNAL: i32 = -99;
 
 /// A scene: meshes, instances of them, and the trees built by the last commit. Opaque.
 pub struct KdbeamScene(Scene);
+
+/// The kd-tree build parameters of a scene's meshes (`kdbeam_scene_set_build_params`).
+/// Fill one with `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays`
+/// and change what you need.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdbeamBuildParams {
+    /// The cost of a ray–triangle test over that of a traversal step: larger values build
+    /// bigger trees with smaller leaves. Finite and > 0. The default (0.05) serves camera and
+    /// shadow rays, which trace in packets; single incoherent rays want more
+    /// (`kdbeam_build_params_for_incoherent_rays`).
+    pub ci_over_ct: f32,
+    /// The fraction by which a split's cost is reduced when one side is empty, in `[0, 1)`.
+    pub empty_bonus: f32,
+    /// The deepest a tree may grow, at most 64; 0 for the default rule, `8 + 1.3·log2(N)` for
+    /// `N` triangles.
+    pub max_depth: u32,
+    /// Nodes with at most this many triangles become leaves (at least 1).
+    pub leaf_size: u32,
+    /// Nodes with at most this many triangles choose their split exactly, larger ones among
+    /// binned candidates: lower builds faster, with slightly costlier trees.
+    pub exact_search_max: u32,
+}
+
+impl From<&BuildParams> for KdbeamBuildParams {
+    fn from(p: &BuildParams) -> KdbeamBuildParams {
+        KdbeamBuildParams {
+            ci_over_ct: p.ci_over_ct,
+            empty_bonus: p.empty_bonus,
+            max_depth: p.max_depth.unwrap_or(0),
+            leaf_size: p.leaf_size,
+            exact_search_max: p.exact_search_max,
+        }
+    }
+}
+
+impl From<&KdbeamBuildParams> for BuildParams {
+    fn from(p: &KdbeamBuildParams) -> BuildParams {
+        BuildParams::default()
+            .with_ci_over_ct(p.ci_over_ct)
+            .with_empty_bonus(p.empty_bonus)
+            .with_max_depth((p.max_depth != 0).then_some(p.max_depth))
+            .with_leaf_size(p.leaf_size)
+            .with_exact_search_max(p.exact_search_max)
+    }
+}
 
 /// A ray `org + t·dir` over `[tnear, tfar]`. `dir` need not be normalised; `tfar` may be
 /// `INFINITY`.
@@ -467,6 +513,104 @@ pub unsafe extern "C" fn kdbeam_scene_commit(scene: *mut KdbeamScene) -> c_int {
             // SAFETY: the caller's promise.
             let scene = unsafe { deref_mut(scene, "scene") }?;
             scene.0.commit()?;
+            Ok(KDBEAM_OK)
+        },
+    )
+}
+
+/// Writes the default build parameters to `*params`: the trees `kdbeam_scene_new` builds.
+/// Returns 0, or `KDBEAM_ERROR_NULL_POINTER`.
+///
+/// # Safety
+/// `params` is NULL or points to a writable `KdbeamBuildParams`.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_build_params_default(params: *mut KdbeamBuildParams) -> c_int {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise.
+            let params = unsafe { deref_mut(params, "params") }?;
+            *params = KdbeamBuildParams::from(&BuildParams::default());
+            Ok(KDBEAM_OK)
+        },
+    )
+}
+
+/// Writes `of(scene)` to `*params`.
+///
+/// # Safety
+/// As `kdbeam_scene_get_build_params`.
+unsafe fn write_build_params(
+    scene: *const KdbeamScene,
+    params: *mut KdbeamBuildParams,
+    of: impl FnOnce(&Scene) -> BuildParams,
+) -> c_int {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise.
+            let scene = unsafe { deref(scene, "scene") }?;
+            // SAFETY: the caller's promise.
+            let params = unsafe { deref_mut(params, "params") }?;
+            *params = KdbeamBuildParams::from(&of(&scene.0));
+            Ok(KDBEAM_OK)
+        },
+    )
+}
+
+/// Writes to `*params` the build parameters for a scene traced mostly by single incoherent
+/// rays (ambient occlusion, diffuse bounces, rays from anywhere) on the ISA `scene` traces
+/// with: smaller leaves than the default below 16 SIMD lanes, the default on AVX-512. Returns
+/// 0, or `KDBEAM_ERROR_NULL_POINTER`.
+///
+/// # Safety
+/// `scene` is NULL or a live scene; `params` is NULL or points to a writable
+/// `KdbeamBuildParams`.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_build_params_for_incoherent_rays(
+    scene: *const KdbeamScene,
+    params: *mut KdbeamBuildParams,
+) -> c_int {
+    // SAFETY: the caller's promise, passed on.
+    unsafe { write_build_params(scene, params, |s| BuildParams::for_incoherent_rays(s.isa())) }
+}
+
+/// Writes the scene's build parameters to `*params`. Returns 0, or
+/// `KDBEAM_ERROR_NULL_POINTER`.
+///
+/// # Safety
+/// `scene` is NULL or a live scene; `params` is NULL or points to a writable
+/// `KdbeamBuildParams`.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_scene_get_build_params(
+    scene: *const KdbeamScene,
+    params: *mut KdbeamBuildParams,
+) -> c_int {
+    // SAFETY: the caller's promise, passed on.
+    unsafe { write_build_params(scene, params, |s| *s.build_params()) }
+}
+
+/// Sets the build parameters of the scene's meshes; the next commit rebuilds every mesh's tree
+/// with them. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_INVALID_ARGUMENT` for a
+/// value out of its range (a NaN or non-positive `ci_over_ct`, an `empty_bonus` outside
+/// `[0, 1)`, a `max_depth` above 64, a `leaf_size` of 0), which leaves the scene unchanged.
+/// Must not overlap any other call on this scene.
+///
+/// # Safety
+/// `scene` is NULL or a live scene; `params` is NULL or points to a `KdbeamBuildParams`.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_scene_set_build_params(
+    scene: *mut KdbeamScene,
+    params: *const KdbeamBuildParams,
+) -> c_int {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise.
+            let scene = unsafe { deref_mut(scene, "scene") }?;
+            // SAFETY: the caller's promise.
+            let params = unsafe { deref(params, "params") }?;
+            scene.0.set_build_params(BuildParams::from(params))?;
             Ok(KDBEAM_OK)
         },
     )

@@ -239,3 +239,140 @@ fn the_last_error_is_per_thread() {
     assert_eq!(other, "");
     assert!(last_error().contains("scene is NULL"));
 }
+
+/// A hit with every field other than a query's answer.
+fn ray_hit_unset() -> KdbeamHit {
+    let v = f32::NAN;
+    let id = 7;
+    KdbeamHit {
+        t: v,
+        u: v,
+        v,
+        triangle: id,
+        geometry: id,
+        instance: id,
+    }
+}
+
+#[test]
+fn build_params_through_the_c_abi() {
+    let zeroed = KdbeamBuildParams {
+        ci_over_ct: 0.0,
+        empty_bonus: 0.0,
+        max_depth: 0,
+        leaf_size: 0,
+        exact_search_max: 0,
+    };
+    // SAFETY: every pointer below is NULL (which the functions must reject) or valid.
+    unsafe {
+        let mut default = zeroed;
+        assert_eq!(kdbeam_build_params_default(&mut default), KDBEAM_OK);
+        let rust = kdbeam::BuildParams::default();
+        assert_eq!(
+            (default.ci_over_ct, default.empty_bonus, default.leaf_size),
+            (rust.ci_over_ct, rust.empty_bonus, rust.leaf_size)
+        );
+        assert_eq!(default.max_depth, 0, "the default depth rule");
+        assert_eq!(
+            kdbeam_build_params_default(null_mut()),
+            KDBEAM_ERROR_NULL_POINTER
+        );
+
+        let scene = kdbeam_scene_new();
+        let mut got = zeroed;
+        assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
+        assert_eq!(got, default, "a new scene builds with the defaults");
+        let mut incoherent = zeroed;
+        assert_eq!(
+            kdbeam_build_params_for_incoherent_rays(scene, &mut incoherent),
+            KDBEAM_OK
+        );
+        let isa = kdbeam::scene::world::Scene::new().isa();
+        let want = kdbeam::BuildParams::for_incoherent_rays(isa);
+        assert_eq!(incoherent.ci_over_ct, want.ci_over_ct, "{isa}");
+        assert_eq!(
+            kdbeam_build_params_for_incoherent_rays(null(), &mut incoherent),
+            KDBEAM_ERROR_NULL_POINTER
+        );
+
+        assert_eq!(
+            kdbeam_scene_add_mesh(scene, POSITIONS.as_ptr(), 3, INDICES.as_ptr(), 1),
+            0
+        );
+        assert_eq!(kdbeam_scene_commit(scene), KDBEAM_OK);
+        let mut before = ray_hit_unset();
+        kdbeam_intersect1(scene, &ray(-5.0), &mut before);
+        assert_eq!(before.triangle, 0);
+
+        // Out of range: rejected with the parameter named, the scene unchanged.
+        for (bad, name) in [
+            (
+                KdbeamBuildParams {
+                    ci_over_ct: f32::NAN,
+                    ..default
+                },
+                "ci_over_ct",
+            ),
+            (
+                KdbeamBuildParams {
+                    ci_over_ct: 0.0,
+                    ..default
+                },
+                "ci_over_ct",
+            ),
+            (
+                KdbeamBuildParams {
+                    empty_bonus: 1.0,
+                    ..default
+                },
+                "empty_bonus",
+            ),
+            (
+                KdbeamBuildParams {
+                    max_depth: 65,
+                    ..default
+                },
+                "max_depth",
+            ),
+            (
+                KdbeamBuildParams {
+                    leaf_size: 0,
+                    ..default
+                },
+                "leaf_size",
+            ),
+        ] {
+            assert_eq!(
+                kdbeam_scene_set_build_params(scene, &bad),
+                KDBEAM_ERROR_INVALID_ARGUMENT,
+                "{bad:?}"
+            );
+            assert!(last_error().contains(name), "{}", last_error());
+            assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
+            assert_eq!(got, default);
+        }
+        assert_eq!(
+            kdbeam_scene_set_build_params(scene, null()),
+            KDBEAM_ERROR_NULL_POINTER
+        );
+        assert_eq!(
+            kdbeam_scene_set_build_params(null_mut(), &default),
+            KDBEAM_ERROR_NULL_POINTER
+        );
+
+        // Set, read back, rebuilt by the next commit: the same hit.
+        let chosen = KdbeamBuildParams {
+            max_depth: 12,
+            leaf_size: 4,
+            ..incoherent
+        };
+        assert_eq!(kdbeam_scene_set_build_params(scene, &chosen), KDBEAM_OK);
+        assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
+        assert_eq!(got, chosen);
+        assert_eq!(kdbeam_scene_commit(scene), KDBEAM_OK);
+        let mut after = ray_hit_unset();
+        kdbeam_intersect1(scene, &ray(-5.0), &mut after);
+        assert_eq!(after, before);
+        kdbeam_scene_free(scene);
+    }
+}

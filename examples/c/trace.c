@@ -53,6 +53,17 @@ int main(void) {
         check(inst[i] == (uint32_t)i, "instance ids count from 0");
     }
 
+    /* Trees for single incoherent rays (this example traces rays one by one); a value out of
+       its range is refused and leaves the scene as it was. */
+    KdbeamBuildParams params;
+    check(kdbeam_build_params_for_incoherent_rays(scene, &params) == 0, "incoherent-ray params");
+    check(kdbeam_scene_set_build_params(scene, &params) == 0, "set_build_params");
+    KdbeamBuildParams refused = params;
+    refused.ci_over_ct = -1.0f;
+    check(kdbeam_scene_set_build_params(scene, &refused) == KDBEAM_ERROR_INVALID_ARGUMENT,
+          "a negative ci_over_ct is refused");
+    printf("negative ci_over_ct: %s\n", kdbeam_last_error());
+
     /* Tracing before the first commit: a miss, with the error set. */
     KdbeamRay r = down(0.25f, 0.25f);
     KdbeamHit hit;
