@@ -131,12 +131,20 @@ fn synthetic_prints_the_baseline_once_when_asked_for_it() {
 #[test]
 fn ambient_occlusion_gets_its_own_tree_and_the_same_picture() {
     // On four lanes the AO rays default to the tree for incoherent rays (ci_over_ct 0.3);
-    // given the primary rays' own ratio, they share its tree. Any-hit answers do not depend
+    // given the primary rays' ratio, they share its tree. Any-hit answers do not depend
     // on the tree, so the pictures are the same to the byte.
     let render = |ao_ci: Option<&str>| {
         let png = TempFile::new("ao.png");
         let mut args = vec![
-            "render", "--shade", "ao", "--size", "48x32", "--isa", "portable",
+            "render",
+            "--shade",
+            "ao",
+            "--size",
+            "48x32",
+            "--isa",
+            "portable",
+            "--ci-over-ct",
+            "0.05",
         ];
         args.extend(["--out", png.path().to_str().unwrap()]);
         if let Some(ci) = ao_ci {
@@ -158,10 +166,10 @@ fn ambient_occlusion_gets_its_own_tree_and_the_same_picture() {
 
 #[test]
 fn bench_measures_each_kind_of_ray_on_its_default_tree() {
-    let trees = |rays: &str, isa: &str| {
+    let trees_of = |scene: &str, rays: &str, isa: &str| {
         let out = kdbeam(&[
             "bench",
-            "builtin:icosphere",
+            scene,
             "--rays",
             rays,
             "--packet",
@@ -176,18 +184,26 @@ fn bench_measures_each_kind_of_ray_on_its_default_tree() {
             "1",
             "--json",
         ]);
-        let mut ci: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        let mut ci: Vec<f32> = String::from_utf8_lossy(&out.stdout)
             .lines()
             .map(|l| {
-                serde_json::from_str::<serde_json::Value>(l).unwrap()["ci_over_ct"].to_string()
+                let row = serde_json::from_str::<serde_json::Value>(l).unwrap();
+                row["ci_over_ct"].as_f64().expect("a tree's ci_over_ct") as f32
             })
             .collect();
         ci.dedup();
         ci
     };
-    assert_eq!(trees("primary", "scalar,portable"), ["0.05"]);
-    assert_eq!(trees("shadow", "portable"), ["0.05"]);
-    assert_eq!(trees("ao", "scalar,portable"), ["0.3"]);
-    assert_eq!(trees("diffuse", "portable"), ["0.3"]);
-    assert_eq!(trees("random", "portable"), ["0.3"]);
+    let trees = |rays: &str, isa: &str| trees_of("builtin:icosphere", rays, isa);
+    // The icosphere's triangles are alike: the default.
+    assert_eq!(trees("primary", "scalar,portable"), [0.05]);
+    assert_eq!(trees("shadow", "portable"), [0.05]);
+    assert_eq!(trees("ao", "scalar,portable"), [0.3]);
+    assert_eq!(trees("diffuse", "portable"), [0.3]);
+    assert_eq!(trees("random", "portable"), [0.3]);
+    // Camera rays on the scene's own tree: the default scene's spheres and valley.
+    let mesh = kdbeam::scene::procedural::builtin("default").unwrap();
+    let own = kdbeam::BuildParams::for_mesh(&mesh).ci_over_ct;
+    assert!(own > 0.05, "{own}");
+    assert_eq!(trees_of("builtin:default", "primary", "portable"), [own]);
 }

@@ -19,6 +19,8 @@ use kdbeam_kernels::raybox::BoxBlock;
 use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{Aabb, Isa, KsTriangle, Triangle, TriangleBlock};
 
+use crate::Mesh;
+
 pub use build::KdTreeBuilder;
 pub use node::{Node, MAX_NODE_INDEX};
 pub use stats::BuildStats;
@@ -47,8 +49,9 @@ pub struct BuildParams {
     /// Cost of one ray–triangle test over the cost of one traversal step (`Ci / Ct`), the
     /// horizontal axis of Reshetov's Figs. 7–9. Larger values split more: bigger trees, smaller
     /// leaves. Must be finite and > 0. The default, 0.05, serves primary and shadow rays on one
-    /// tree: culled packets want fewer nodes than the unculled SAH optimum (0.03 is fastest for
-    /// camera rays on the bunny and the dragon, 0.1–1.5 on sponza), single rays more
+    /// tree of an evenly tessellated mesh: culled packets want fewer nodes than the unculled
+    /// SAH optimum; a mesh whose surface is held by large triangles wants more
+    /// ([`BuildParams::for_mesh`]), and so do single rays
     /// ([`BuildParams::for_incoherent_rays`]);
     /// docs/benchmarks.md ("Defaults") has what it costs each kind of ray on each shared scene.
     pub ci_over_ct: f32,
@@ -145,6 +148,45 @@ impl BuildParams {
             return bad("leaf_size", "must be at least 1".into());
         }
         Ok(())
+    }
+
+    /// The build for camera and shadow rays traced in packets on `mesh`: the default with
+    /// [`ci_over_ct`](BuildParams::ci_over_ct) `0.05 · s^0.75` (within `[0.05, 3]`), where `s`
+    /// is how unevenly the mesh's surface is shared among its triangles
+    /// ([`Mesh::area_spread`]).
+    ///
+    /// A packet's beam culls the triangles of a leaf that its rays miss (Reshetov, Soupikov &
+    /// Hurley's transient frustum). Where small triangles hold the surface (a scanned model,
+    /// `s` near 1), it removes most of a leaf's tests, and a small tree of large leaves is
+    /// fastest: the default. Where large triangles hold most of it (an interior's walls and
+    /// floors), every packet meets them, their tests stay, and smaller leaves pay. The rule
+    /// follows the fastest sizes of the shared scenes' camera rays (docs/benchmarks.md, "The
+    /// default tree from the scene's triangles"): the bunny (`s` = 0.98), the dragon (1.96) and
+    /// killeroo (2.71) run within a few percent between 0.03 and 0.1, sponza (207) fastest
+    /// near 3.
+    ///
+    /// ```
+    /// use kdbeam::{BuildParams, Mesh};
+    ///
+    /// let even = Mesh::from_soup(&[
+    ///     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+    ///     [0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0],
+    /// ])?;
+    /// // Equal triangles: the default.
+    /// assert_eq!(BuildParams::for_mesh(&even), BuildParams::default());
+    /// // A large triangle beside a small one: a bigger tree.
+    /// let uneven = Mesh::from_soup(&[
+    ///     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+    ///     [0.0, 0.0, 1.0], [10.0, 0.0, 1.0], [0.0, 10.0, 1.0],
+    /// ])?;
+    /// assert!(BuildParams::for_mesh(&uneven).ci_over_ct > 0.08);
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
+    #[must_use]
+    pub fn for_mesh(mesh: &Mesh) -> Self {
+        let even = BuildParams::default();
+        let ci_over_ct = even.ci_over_ct * mesh.area_spread().powf(0.75);
+        even.with_ci_over_ct(ci_over_ct.clamp(even.ci_over_ct, 3.0))
     }
 
     /// The build for incoherent rays traced on `isa`: ambient-occlusion and diffuse rays,

@@ -13,7 +13,7 @@ use std::time::Instant;
 use kdbeam::rays::secondary::{TilePackets, DEFAULT_AO_RAYS};
 use kdbeam::rays::stream::{intersect_sorted, occluded_sorted};
 use kdbeam::trace::{Culling, Intersector, RayBoxes};
-use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Ray, RayPacket, Tracer};
+use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Mesh, Ray, RayPacket, Tracer};
 use kdbeam_cli::render::{RaySet, Rays};
 use kdbeam_cli::{Error, Result};
 use rayon::prelude::*;
@@ -230,7 +230,7 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
         let mut rows = Vec::new();
         // Made from the first tree's primary hits: every tree and tracer gives the same hits.
         let mut rays: Option<RaysOf> = None;
-        for ci_over_ct in tree_sizes(args, &isas) {
+        for ci_over_ct in tree_sizes(args, &isas, &mesh) {
             let tree = build_tree(&mesh, &tree_args(args, ci_over_ct))?;
             if rays.is_none() {
                 rays = Some(RaysOf::new(args, &mesh, &Tracer::new(&tree))?);
@@ -307,15 +307,15 @@ pub(crate) fn rows(args: &BenchArgs) -> Result<Vec<Row>> {
     Ok(all)
 }
 
-/// The SAH cost ratios of the trees to measure: `--ci-over-ct`, or else the tree each ISA of
-/// `isas` traces the rays of `args` on by default, each once.
-fn tree_sizes(args: &BenchArgs, isas: &[Isa]) -> Vec<f32> {
+/// The SAH cost ratios of `mesh`'s trees to measure: `--ci-over-ct`, or else the tree each
+/// ISA of `isas` traces the rays of `args` on by default, each once.
+fn tree_sizes(args: &BenchArgs, isas: &[Isa], mesh: &Mesh) -> Vec<f32> {
     if !args.ci_over_ct.is_empty() {
         return args.ci_over_ct.clone();
     }
     let mut sizes: Vec<f32> = isas
         .iter()
-        .map(|&isa| args.rays.build_params(isa).ci_over_ct)
+        .map(|&isa| args.rays.build_params(isa, mesh).ci_over_ct)
         .collect();
     sizes.sort_by(f32::total_cmp);
     sizes.dedup();
@@ -326,7 +326,7 @@ fn tree_sizes(args: &BenchArgs, isas: &[Isa]) -> Vec<f32> {
 fn tree_args(args: &BenchArgs, ci_over_ct: f32) -> TreeArgs {
     TreeArgs {
         intersector: args.intersector,
-        ci_over_ct,
+        ci_over_ct: Some(ci_over_ct),
         empty_bonus: args.empty_bonus,
         exact_search_max: args.exact_search_max,
     }

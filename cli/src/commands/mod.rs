@@ -23,9 +23,10 @@ pub(crate) struct TreeArgs {
     /// Ray–triangle test: kensler_shirley or watertight.
     #[arg(long, default_value = "kensler_shirley")]
     intersector: Intersector,
-    /// SAH cost ratio of a ray–triangle test to a traversal step.
-    #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
-    ci_over_ct: f32,
+    /// SAH cost ratio of a ray–triangle test to a traversal step (default: from the scene's
+    /// triangles, `BuildParams::for_mesh`).
+    #[arg(long)]
+    ci_over_ct: Option<f32>,
     /// SAH discount for splits with an empty side, in [0, 1).
     #[arg(long, default_value_t = BuildParams::default().empty_bonus)]
     empty_bonus: f32,
@@ -122,9 +123,18 @@ fn delayed_bar(len: u64, message: &str) -> (ProgressBar, Instant) {
     (bar, Instant::now())
 }
 
+impl TreeArgs {
+    /// The SAH cost ratio of `mesh`'s tree: `--ci-over-ct`, or else the mesh's own
+    /// ([`BuildParams::for_mesh`]).
+    fn ci_over_ct(&self, mesh: &Mesh) -> f32 {
+        self.ci_over_ct
+            .unwrap_or_else(|| BuildParams::for_mesh(mesh).ci_over_ct)
+    }
+}
+
 fn build_tree(mesh: &Mesh, args: &TreeArgs) -> Result<KdTree> {
     let params = BuildParams::default()
-        .with_ci_over_ct(args.ci_over_ct)
+        .with_ci_over_ct(args.ci_over_ct(mesh))
         .with_empty_bonus(args.empty_bonus)
         .with_exact_search_max(args.exact_search_max);
     Ok(with_spinner("building kd-tree", || {

@@ -94,7 +94,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
         let tree = build_tree(&mesh, &args.tree)?;
         let stats = tree.stats();
         println!("scene      {name}: {} triangles", mesh.triangle_count());
-        let sah_cost = tree.sah_cost(args.tree.ci_over_ct);
+        let sah_cost = tree.sah_cost(args.tree.ci_over_ct(&mesh));
         println!("kd-tree    {stats}, SAH cost {sah_cost:.2}");
         let tracer = tracer(&tree, &args)?;
         let camera = args.camera.camera(&mesh.bounds(), args.size.0, args.size.1)?;
@@ -201,11 +201,11 @@ fn ao_tree(args: &RenderArgs, mesh: &Mesh, isa: Isa) -> Result<Option<(KdTree, f
     let ci_over_ct = args
         .ao_ci_over_ct
         .unwrap_or(BuildParams::for_incoherent_rays(isa).ci_over_ct);
-    if ci_over_ct == args.tree.ci_over_ct {
+    if ci_over_ct == args.tree.ci_over_ct(mesh) {
         return Ok(None);
     }
     let tree_args = TreeArgs {
-        ci_over_ct,
+        ci_over_ct: Some(ci_over_ct),
         ..args.tree.clone()
     };
     Ok(Some((build_tree(mesh, &tree_args)?, ci_over_ct)))

@@ -45,12 +45,13 @@ impl RaySet {
         }
     }
 
-    /// The tree these rays are traced on by default on `isa`: [`BuildParams::default`] for
-    /// camera rays and shadow rays (coherent in pixel tiles: beams cull most of a large
-    /// leaf), [`BuildParams::for_incoherent_rays`] for random, AO and diffuse rays.
-    pub fn build_params(self, isa: Isa) -> BuildParams {
+    /// The tree these rays are traced on by default on `isa` in `mesh`:
+    /// [`BuildParams::for_mesh`] for camera rays and shadow rays (coherent in pixel tiles:
+    /// beams cull most of a large leaf of small triangles), [`BuildParams::for_incoherent_rays`]
+    /// for random, AO and diffuse rays.
+    pub fn build_params(self, isa: Isa, mesh: &Mesh) -> BuildParams {
         match self {
-            RaySet::Primary | RaySet::Shadow => BuildParams::default(),
+            RaySet::Primary | RaySet::Shadow => BuildParams::for_mesh(mesh),
             RaySet::Random | RaySet::Ao | RaySet::Diffuse => BuildParams::for_incoherent_rays(isa),
         }
     }
