@@ -225,7 +225,7 @@ fn too_many(n: usize) -> Error {
 mod tests {
     use super::Mesh;
 
-    /// A mesh of `n` unit right triangles of legs `size`, side by side.
+    /// `n` right triangles with legs of `size` at height `y`, side by side.
     fn triangles(size: f32, n: usize, y: f32) -> Vec<[f32; 3]> {
         (0..n)
             .flat_map(|i| {
