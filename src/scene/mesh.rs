@@ -194,15 +194,17 @@ impl Mesh {
                 count += 1;
             }
         }
+        if count == 0 {
+            return 1.0;
+        }
         let mut below = 0.0;
         let median = bins.iter().find(|&&(sum, _)| {
             below += sum;
             below >= total / 2.0
         });
-        match median {
-            Some(&(sum, n)) if count > 0 => (sum / n as f64 * count as f64 / total) as f32,
-            _ => 1.0,
-        }
+        median.map_or(1.0, |&(sum, n)| {
+            (sum / n as f64 * count as f64 / total) as f32
+        })
     }
 
     /// The box around every vertex that some triangle uses (empty for an empty mesh).

@@ -130,6 +130,14 @@ impl TreeArgs {
         self.ci_over_ct
             .unwrap_or_else(|| BuildParams::for_mesh(mesh).ci_over_ct)
     }
+
+    /// These options with `mesh`'s SAH cost ratio settled, so that it is measured once.
+    fn for_mesh(&self, mesh: &Mesh) -> TreeArgs {
+        TreeArgs {
+            ci_over_ct: Some(self.ci_over_ct(mesh)),
+            ..self.clone()
+        }
+    }
 }
 
 fn build_tree(mesh: &Mesh, args: &TreeArgs) -> Result<KdTree> {

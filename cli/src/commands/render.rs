@@ -91,10 +91,11 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     pool.install(|| {
         let (name, mesh) = with_spinner("loading scene", || load_scene(args.scene.as_deref()))?;
-        let tree = build_tree(&mesh, &args.tree)?;
+        let tree_args = args.tree.for_mesh(&mesh);
+        let tree = build_tree(&mesh, &tree_args)?;
         let stats = tree.stats();
         println!("scene      {name}: {} triangles", mesh.triangle_count());
-        let sah_cost = tree.sah_cost(args.tree.ci_over_ct(&mesh));
+        let sah_cost = tree.sah_cost(tree_args.ci_over_ct(&mesh));
         println!("kd-tree    {stats}, SAH cost {sah_cost:.2}");
         let tracer = tracer(&tree, &args)?;
         let camera = args.camera.camera(&mesh.bounds(), args.size.0, args.size.1)?;
@@ -163,7 +164,7 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
                 ),
             );
         }
-        let ao_tree = ao_tree(&args, &mesh, tracer.isa())?;
+        let ao_tree = ao_tree(&args, &tree_args, &mesh, tracer.isa())?;
         let ao_tracer = match &ao_tree {
             Some((tree, ci_over_ct)) => {
                 let ci_over_ct = *ci_over_ct;
@@ -193,20 +194,26 @@ pub(crate) fn run(args: RenderArgs) -> Result<()> {
 }
 
 /// The tree of the ambient-occlusion rays and its SAH cost ratio, where `args` asks for them
-/// and for a tree other than the primary rays' (see [`BuildParams::for_incoherent_rays`]).
-fn ao_tree(args: &RenderArgs, mesh: &Mesh, isa: Isa) -> Result<Option<(KdTree, f32)>> {
+/// and for a tree other than the primary rays' of `primary` (see
+/// [`BuildParams::for_incoherent_rays`]).
+fn ao_tree(
+    args: &RenderArgs,
+    primary: &TreeArgs,
+    mesh: &Mesh,
+    isa: Isa,
+) -> Result<Option<(KdTree, f32)>> {
     if args.shade != Shade::Ao {
         return Ok(None);
     }
     let ci_over_ct = args
         .ao_ci_over_ct
         .unwrap_or(BuildParams::for_incoherent_rays(isa).ci_over_ct);
-    if ci_over_ct == args.tree.ci_over_ct(mesh) {
+    if ci_over_ct == primary.ci_over_ct(mesh) {
         return Ok(None);
     }
     let tree_args = TreeArgs {
         ci_over_ct: Some(ci_over_ct),
-        ..args.tree.clone()
+        ..primary.clone()
     };
     Ok(Some((build_tree(mesh, &tree_args)?, ci_over_ct)))
 }
