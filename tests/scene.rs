@@ -10,7 +10,8 @@ use kdbeam::scene::rng::Rng;
 use kdbeam::scene::world::{Query, SceneHit};
 use kdbeam::Isa;
 use kdbeam::{
-    Aabb, Error, GeometryId, InstanceId, Intersector, Mesh, Ray, RayPacket, Scene, Triangle, Vec3,
+    Aabb, BuildParams, Error, GeometryId, InstanceId, Intersector, KdTree, Mesh, Ray, RayPacket,
+    Scene, Triangle, Vec3,
 };
 
 /// One world-space triangle and where it comes from.
@@ -714,5 +715,78 @@ fn packets_match_single_rays_bit_for_bit() {
     assert!(matches!(
         scene.intersect_packet(&packet, packet.full_mask(), &Query::default(), &mut short),
         Err(Error::InvalidParameter { .. })
+    ));
+}
+
+/// A sphere of small triangles on a floor of two large ones: most of its surface in large
+/// triangles, so its own tree is bigger than the default.
+fn sphere_on_floor() -> Mesh {
+    let mut mesh = icosphere(Vec3::new(0.0, 1.0, 0.0), 1.0, 3);
+    let floor = quad_grid(
+        1,
+        1,
+        Vec3::new(-50.0, 0.0, -50.0),
+        Vec3::new(100.0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 100.0),
+    );
+    mesh.append(&floor).unwrap();
+    mesh
+}
+
+#[test]
+fn each_mesh_gets_its_own_tree_until_parameters_are_set() {
+    let (uneven, even) = (sphere_on_floor(), icosphere(Vec3::ZERO, 1.0, 3));
+    let own = BuildParams::for_mesh(&uneven);
+    assert!(
+        own.ci_over_ct > 2.0 * BuildParams::default().ci_over_ct,
+        "{own:?}"
+    );
+    assert_eq!(BuildParams::for_mesh(&even), BuildParams::default());
+    let built_nodes = |params: &BuildParams| KdTree::build(&uneven, params).unwrap().stats().nodes;
+    assert_ne!(built_nodes(&own), built_nodes(&BuildParams::default()));
+
+    let mut scene = Scene::new();
+    let (u, e) = (
+        scene.add_mesh(uneven.clone()).unwrap(),
+        scene.add_mesh(even).unwrap(),
+    );
+    assert_eq!(scene.build_params(), None);
+    assert_eq!(
+        scene.tree(u).unwrap().map(|t| t.stats().nodes),
+        None,
+        "before the commit"
+    );
+    scene.commit().unwrap();
+    let nodes = |scene: &Scene, g| scene.tree(g).unwrap().unwrap().stats().nodes;
+    assert_eq!(scene.geometry_build_params(u).unwrap(), own);
+    assert_eq!(
+        scene.geometry_build_params(e).unwrap(),
+        BuildParams::default()
+    );
+    assert_eq!(nodes(&scene, u), built_nodes(&own));
+
+    // Set for every mesh: both trees rebuilt with them; the same again rebuilds nothing.
+    let set = BuildParams::default().with_ci_over_ct(1.0);
+    scene.set_build_params(set).unwrap();
+    assert_eq!(scene.build_params(), Some(&set));
+    assert!(scene.tree(e).unwrap().is_none());
+    scene.commit().unwrap();
+    assert_eq!(scene.geometry_build_params(e).unwrap(), set);
+    assert_eq!(nodes(&scene, u), built_nodes(&set));
+    scene.set_build_params(set).unwrap();
+    assert!(!scene.has_changes());
+
+    // Reset: each mesh's own again.
+    scene.reset_build_params();
+    assert!(scene.has_changes());
+    scene.commit().unwrap();
+    assert_eq!(nodes(&scene, u), built_nodes(&own));
+    assert!(matches!(
+        scene.geometry_build_params(GeometryId(7)),
+        Err(Error::UnknownGeometry(7))
+    ));
+    assert!(matches!(
+        scene.tree(GeometryId(7)),
+        Err(Error::UnknownGeometry(7))
     ));
 }

@@ -82,6 +82,12 @@
 #define KDBEAM_ERROR_IN_USE -7
 
 /**
+ * Not a failure: `kdbeam_scene_get_build_params` on a scene that sizes each mesh's tree by
+ * its own triangles (no parameters set for every mesh).
+ */
+#define KDBEAM_BUILD_PARAMS_PER_MESH 1
+
+/**
  * A bug in kdbeam, caught before it reached the caller.
  */
 #define KDBEAM_ERROR_INTERNAL -99
@@ -92,9 +98,11 @@
 typedef struct KdbeamScene KdbeamScene;
 
 /**
- * The kd-tree build parameters of a scene's meshes (`kdbeam_scene_set_build_params`).
- * Fill one with `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays`
- * and change what you need.
+ * The kd-tree build parameters of a scene's meshes. A new scene sizes each mesh's tree by its
+ * own triangles (`kdbeam_scene_get_geometry_build_params` says with what);
+ * `kdbeam_scene_set_build_params` sets one for every mesh instead. Fill one with
+ * `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays` and change what
+ * you need.
  */
 typedef struct {
   /**
@@ -278,7 +286,8 @@ int kdbeam_scene_remove_instance(KdbeamScene *scene, uint32_t instance);
 int kdbeam_scene_commit(KdbeamScene *scene);
 
 /**
- * Writes the default build parameters to `*params`: the trees `kdbeam_scene_new` builds.
+ * Writes the default build parameters to `*params`: the tree for camera and shadow rays
+ * (traced in packets) of a mesh of even triangles, which a new scene gives such a mesh.
  * Returns 0, or `KDBEAM_ERROR_NULL_POINTER`.
  *
  * # Safety
@@ -299,8 +308,10 @@ int kdbeam_build_params_default(KdbeamBuildParams *params);
 int kdbeam_build_params_for_incoherent_rays(const KdbeamScene *scene, KdbeamBuildParams *params);
 
 /**
- * Writes the scene's build parameters to `*params`. Returns 0, or
- * `KDBEAM_ERROR_NULL_POINTER`.
+ * Writes the build parameters set for every mesh of the scene to `*params` and returns 0.
+ * When none are set (a new scene, or after `kdbeam_scene_reset_build_params`: each mesh's
+ * tree sized by its own triangles) writes the default parameters and returns
+ * `KDBEAM_BUILD_PARAMS_PER_MESH`. Returns `KDBEAM_ERROR_NULL_POINTER` for a NULL argument.
  *
  * # Safety
  * `scene` is NULL or a live scene; `params` is NULL or points to a writable
@@ -309,16 +320,40 @@ int kdbeam_build_params_for_incoherent_rays(const KdbeamScene *scene, KdbeamBuil
 int kdbeam_scene_get_build_params(const KdbeamScene *scene, KdbeamBuildParams *params);
 
 /**
- * Sets the build parameters of the scene's meshes; the next commit rebuilds every mesh's tree
- * with them. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_INVALID_ARGUMENT` for a
- * value out of its range (a NaN or non-positive `ci_over_ct`, an `empty_bonus` outside
- * `[0, 1)`, a `max_depth` above 64, a `leaf_size` of 0), which leaves the scene unchanged.
- * Must not overlap any other call on this scene.
+ * Writes to `*params` the build parameters of a mesh's tree: those set for every mesh, or
+ * else the mesh's own, sized by its triangles (a mesh whose surface is held by a few large
+ * triangles, such as an interior's walls, gets a bigger tree than one of even triangles).
+ * Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_UNKNOWN_ID`.
+ *
+ * # Safety
+ * `scene` is NULL or a live scene; `params` is NULL or points to a writable
+ * `KdbeamBuildParams`.
+ */
+int kdbeam_scene_get_geometry_build_params(const KdbeamScene *scene,
+                                           uint32_t geometry,
+                                           KdbeamBuildParams *params);
+
+/**
+ * Sets the build parameters of every mesh of the scene; the next commit rebuilds the trees
+ * (none when they are those already set). Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
+ * `KDBEAM_ERROR_INVALID_ARGUMENT` for a value out of its range (a NaN or non-positive
+ * `ci_over_ct`, an `empty_bonus` outside `[0, 1)`, a `max_depth` above 64, a `leaf_size` of
+ * 0), which leaves the scene unchanged. Must not overlap any other call on this scene.
  *
  * # Safety
  * `scene` is NULL or a live scene; `params` is NULL or points to a `KdbeamBuildParams`.
  */
 int kdbeam_scene_set_build_params(KdbeamScene *scene, const KdbeamBuildParams *params);
+
+/**
+ * Back to the default: each mesh's tree sized by its own triangles; the next commit rebuilds
+ * the trees if parameters were set. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
+ * overlap any other call on this scene.
+ *
+ * # Safety
+ * `scene` is NULL or a live scene.
+ */
+int kdbeam_scene_reset_build_params(KdbeamScene *scene);
 
 /**
  * Writes the closest hit of `*ray` in the committed scene to `*hit`: a miss (`t = INFINITY`,

@@ -37,15 +37,20 @@ pub const KDBEAM_ERROR_INVALID_MESH: i32 = -5;
 pub const KDBEAM_ERROR_INVALID_TRANSFORM: i32 = -6;
 /// A geometry still used by instances cannot be removed.
 pub const KDBEAM_ERROR_IN_USE: i32 = -7;
+/// Not a failure: `kdbeam_scene_get_build_params` on a scene that sizes each mesh's tree by
+/// its own triangles (no parameters set for every mesh).
+pub const KDBEAM_BUILD_PARAMS_PER_MESH: i32 = 1;
 /// A bug in kdbeam, caught before it reached the caller.
 pub const KDBEAM_ERROR_INTERNAL: i32 = -99;
 
 /// A scene: meshes, instances of them, and the trees built by the last commit. Opaque.
 pub struct KdbeamScene(Scene);
 
-/// The kd-tree build parameters of a scene's meshes (`kdbeam_scene_set_build_params`).
-/// Fill one with `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays`
-/// and change what you need.
+/// The kd-tree build parameters of a scene's meshes. A new scene sizes each mesh's tree by its
+/// own triangles (`kdbeam_scene_get_geometry_build_params` says with what);
+/// `kdbeam_scene_set_build_params` sets one for every mesh instead. Fill one with
+/// `kdbeam_build_params_default` or `kdbeam_build_params_for_incoherent_rays` and change what
+/// you need.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KdbeamBuildParams {
@@ -518,7 +523,8 @@ pub unsafe extern "C" fn kdbeam_scene_commit(scene: *mut KdbeamScene) -> c_int {
     )
 }
 
-/// Writes the default build parameters to `*params`: the trees `kdbeam_scene_new` builds.
+/// Writes the default build parameters to `*params`: the tree for camera and shadow rays
+/// (traced in packets) of a mesh of even triangles, which a new scene gives such a mesh.
 /// Returns 0, or `KDBEAM_ERROR_NULL_POINTER`.
 ///
 /// # Safety
@@ -536,14 +542,14 @@ pub unsafe extern "C" fn kdbeam_build_params_default(params: *mut KdbeamBuildPar
     )
 }
 
-/// Writes `of(scene)` to `*params`.
+/// Writes `of(scene)`'s parameters to `*params` and returns its code.
 ///
 /// # Safety
 /// As `kdbeam_scene_get_build_params`.
 unsafe fn write_build_params(
     scene: *const KdbeamScene,
     params: *mut KdbeamBuildParams,
-    of: impl FnOnce(&Scene) -> BuildParams,
+    of: impl FnOnce(&Scene) -> Result<(BuildParams, c_int), Failure>,
 ) -> c_int {
     guard(
         |code| code,
@@ -552,8 +558,9 @@ unsafe fn write_build_params(
             let scene = unsafe { deref(scene, "scene") }?;
             // SAFETY: the caller's promise.
             let params = unsafe { deref_mut(params, "params") }?;
-            *params = KdbeamBuildParams::from(&of(&scene.0));
-            Ok(KDBEAM_OK)
+            let (chosen, code) = of(&scene.0)?;
+            *params = KdbeamBuildParams::from(&chosen);
+            Ok(code)
         },
     )
 }
@@ -572,11 +579,17 @@ pub unsafe extern "C" fn kdbeam_build_params_for_incoherent_rays(
     params: *mut KdbeamBuildParams,
 ) -> c_int {
     // SAFETY: the caller's promise, passed on.
-    unsafe { write_build_params(scene, params, |s| BuildParams::for_incoherent_rays(s.isa())) }
+    unsafe {
+        write_build_params(scene, params, |s| {
+            Ok((BuildParams::for_incoherent_rays(s.isa()), KDBEAM_OK))
+        })
+    }
 }
 
-/// Writes the scene's build parameters to `*params`. Returns 0, or
-/// `KDBEAM_ERROR_NULL_POINTER`.
+/// Writes the build parameters set for every mesh of the scene to `*params` and returns 0.
+/// When none are set (a new scene, or after `kdbeam_scene_reset_build_params`: each mesh's
+/// tree sized by its own triangles) writes the default parameters and returns
+/// `KDBEAM_BUILD_PARAMS_PER_MESH`. Returns `KDBEAM_ERROR_NULL_POINTER` for a NULL argument.
 ///
 /// # Safety
 /// `scene` is NULL or a live scene; `params` is NULL or points to a writable
@@ -587,14 +600,43 @@ pub unsafe extern "C" fn kdbeam_scene_get_build_params(
     params: *mut KdbeamBuildParams,
 ) -> c_int {
     // SAFETY: the caller's promise, passed on.
-    unsafe { write_build_params(scene, params, |s| *s.build_params()) }
+    unsafe {
+        write_build_params(scene, params, |s| {
+            Ok(match s.build_params() {
+                Some(set) => (*set, KDBEAM_OK),
+                None => (BuildParams::default(), KDBEAM_BUILD_PARAMS_PER_MESH),
+            })
+        })
+    }
 }
 
-/// Sets the build parameters of the scene's meshes; the next commit rebuilds every mesh's tree
-/// with them. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_INVALID_ARGUMENT` for a
-/// value out of its range (a NaN or non-positive `ci_over_ct`, an `empty_bonus` outside
-/// `[0, 1)`, a `max_depth` above 64, a `leaf_size` of 0), which leaves the scene unchanged.
-/// Must not overlap any other call on this scene.
+/// Writes to `*params` the build parameters of a mesh's tree: those set for every mesh, or
+/// else the mesh's own, sized by its triangles (a mesh whose surface is held by a few large
+/// triangles, such as an interior's walls, gets a bigger tree than one of even triangles).
+/// Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or `KDBEAM_ERROR_UNKNOWN_ID`.
+///
+/// # Safety
+/// `scene` is NULL or a live scene; `params` is NULL or points to a writable
+/// `KdbeamBuildParams`.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_scene_get_geometry_build_params(
+    scene: *const KdbeamScene,
+    geometry: u32,
+    params: *mut KdbeamBuildParams,
+) -> c_int {
+    // SAFETY: the caller's promise, passed on.
+    unsafe {
+        write_build_params(scene, params, |s| {
+            Ok((s.geometry_build_params(GeometryId(geometry))?, KDBEAM_OK))
+        })
+    }
+}
+
+/// Sets the build parameters of every mesh of the scene; the next commit rebuilds the trees
+/// (none when they are those already set). Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
+/// `KDBEAM_ERROR_INVALID_ARGUMENT` for a value out of its range (a NaN or non-positive
+/// `ci_over_ct`, an `empty_bonus` outside `[0, 1)`, a `max_depth` above 64, a `leaf_size` of
+/// 0), which leaves the scene unchanged. Must not overlap any other call on this scene.
 ///
 /// # Safety
 /// `scene` is NULL or a live scene; `params` is NULL or points to a `KdbeamBuildParams`.
@@ -611,6 +653,25 @@ pub unsafe extern "C" fn kdbeam_scene_set_build_params(
             // SAFETY: the caller's promise.
             let params = unsafe { deref(params, "params") }?;
             scene.0.set_build_params(BuildParams::from(params))?;
+            Ok(KDBEAM_OK)
+        },
+    )
+}
+
+/// Back to the default: each mesh's tree sized by its own triangles; the next commit rebuilds
+/// the trees if parameters were set. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
+/// overlap any other call on this scene.
+///
+/// # Safety
+/// `scene` is NULL or a live scene.
+#[no_mangle]
+pub unsafe extern "C" fn kdbeam_scene_reset_build_params(scene: *mut KdbeamScene) -> c_int {
+    guard(
+        |code| code,
+        || {
+            // SAFETY: the caller's promise.
+            let scene = unsafe { deref_mut(scene, "scene") }?;
+            scene.0.reset_build_params();
             Ok(KDBEAM_OK)
         },
     )

@@ -280,8 +280,12 @@ fn build_params_through_the_c_abi() {
 
         let scene = kdbeam_scene_new();
         let mut got = zeroed;
-        assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
-        assert_eq!(got, default, "a new scene builds with the defaults");
+        assert_eq!(
+            kdbeam_scene_get_build_params(scene, &mut got),
+            KDBEAM_BUILD_PARAMS_PER_MESH,
+            "a new scene sizes each mesh's tree"
+        );
+        assert_eq!(got, default);
         let mut incoherent = zeroed;
         assert_eq!(
             kdbeam_build_params_for_incoherent_rays(scene, &mut incoherent),
@@ -298,6 +302,35 @@ fn build_params_through_the_c_abi() {
         assert_eq!(
             kdbeam_scene_add_mesh(scene, POSITIONS.as_ptr(), 3, INDICES.as_ptr(), 1),
             0
+        );
+        // A large triangle beside a small one: a bigger tree than the even triangle's.
+        let uneven: [f32; 18] = [
+            0.0, 0.0, 9.0, 1.0, 0.0, 9.0, 0.0, 1.0, 9.0, //
+            0.0, 0.0, 8.0, 10.0, 0.0, 8.0, 0.0, 10.0, 8.0,
+        ];
+        let uneven_indices: [u32; 6] = [0, 1, 2, 3, 4, 5];
+        assert_eq!(
+            kdbeam_scene_add_mesh(scene, uneven.as_ptr(), 6, uneven_indices.as_ptr(), 2),
+            1
+        );
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(scene, 0, &mut got),
+            KDBEAM_OK
+        );
+        assert_eq!(got, default, "one triangle: the default");
+        let mut own = zeroed;
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(scene, 1, &mut own),
+            KDBEAM_OK
+        );
+        assert!(own.ci_over_ct > default.ci_over_ct, "{own:?}");
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(scene, 2, &mut got),
+            KDBEAM_ERROR_UNKNOWN_ID
+        );
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(null(), 0, &mut got),
+            KDBEAM_ERROR_NULL_POINTER
         );
         assert_eq!(kdbeam_scene_commit(scene), KDBEAM_OK);
         let mut before = ray_hit_unset();
@@ -348,8 +381,10 @@ fn build_params_through_the_c_abi() {
                 "{bad:?}"
             );
             assert!(last_error().contains(name), "{}", last_error());
-            assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
-            assert_eq!(got, default);
+            assert_eq!(
+                kdbeam_scene_get_build_params(scene, &mut got),
+                KDBEAM_BUILD_PARAMS_PER_MESH
+            );
         }
         assert_eq!(
             kdbeam_scene_set_build_params(scene, null()),
@@ -369,8 +404,32 @@ fn build_params_through_the_c_abi() {
         assert_eq!(kdbeam_scene_set_build_params(scene, &chosen), KDBEAM_OK);
         assert_eq!(kdbeam_scene_get_build_params(scene, &mut got), KDBEAM_OK);
         assert_eq!(got, chosen);
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(scene, 1, &mut got),
+            KDBEAM_OK
+        );
+        assert_eq!(got, chosen, "set for every mesh");
         assert_eq!(kdbeam_scene_commit(scene), KDBEAM_OK);
         let mut after = ray_hit_unset();
+        kdbeam_intersect1(scene, &ray(-5.0), &mut after);
+        assert_eq!(after, before);
+
+        // Reset: each mesh's own again.
+        assert_eq!(kdbeam_scene_reset_build_params(scene), KDBEAM_OK);
+        assert_eq!(
+            kdbeam_scene_get_build_params(scene, &mut got),
+            KDBEAM_BUILD_PARAMS_PER_MESH
+        );
+        assert_eq!(
+            kdbeam_scene_get_geometry_build_params(scene, 1, &mut got),
+            KDBEAM_OK
+        );
+        assert_eq!(got, own);
+        assert_eq!(
+            kdbeam_scene_reset_build_params(null_mut()),
+            KDBEAM_ERROR_NULL_POINTER
+        );
+        assert_eq!(kdbeam_scene_commit(scene), KDBEAM_OK);
         kdbeam_intersect1(scene, &ray(-5.0), &mut after);
         assert_eq!(after, before);
         kdbeam_scene_free(scene);

@@ -65,9 +65,10 @@ struct Args {
     /// tile packets.
     #[arg(long)]
     single_rays: bool,
-    /// SAH cost ratio of the meshes' kd-trees (default: `BuildParams::default`'s).
-    #[arg(long, default_value_t = BuildParams::default().ci_over_ct)]
-    ci_over_ct: f32,
+    /// SAH cost ratio of every mesh's kd-tree (default: each mesh's own,
+    /// `BuildParams::for_mesh`).
+    #[arg(long)]
+    ci_over_ct: Option<f32>,
     /// Also trace the same scene with Embree (needs `--features embree`).
     #[arg(long)]
     embree: bool,
@@ -155,7 +156,9 @@ fn run(args: &Args) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
 
     let start = Instant::now();
     let mut scene = Scene::new();
-    scene.set_build_params(BuildParams::default().with_ci_over_ct(args.ci_over_ct))?;
+    if let Some(ci_over_ct) = args.ci_over_ct {
+        scene.set_build_params(BuildParams::default().with_ci_over_ct(ci_over_ct))?;
+    }
     let prototype = scene.add_prototype(mesh.clone())?;
     scene.add_mesh(ground.clone())?;
     let ids = walkers

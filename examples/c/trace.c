@@ -53,9 +53,15 @@ int main(void) {
         check(inst[i] == (uint32_t)i, "instance ids count from 0");
     }
 
-    /* Trees for single incoherent rays (this example traces rays one by one); a value out of
+    /* A new scene sizes each mesh's tree by its own triangles. This example traces rays one
+       by one, so it sets trees for single incoherent rays on every mesh instead; a value out of
        its range is refused and leaves the scene as it was. */
     KdbeamBuildParams params;
+    check(kdbeam_scene_get_build_params(scene, &params) == KDBEAM_BUILD_PARAMS_PER_MESH,
+          "each mesh its own tree");
+    check(kdbeam_scene_get_geometry_build_params(scene, ground_id, &params) == 0,
+          "the ground's own build params");
+    printf("the ground's own tree: ci_over_ct %g\n", params.ci_over_ct);
     check(kdbeam_build_params_for_incoherent_rays(scene, &params) == 0, "incoherent-ray params");
     check(kdbeam_scene_set_build_params(scene, &params) == 0, "set_build_params");
     KdbeamBuildParams refused = params;

@@ -61,7 +61,7 @@ const DRAG_TURN: f32 = 0.01;
 
 fn run(args: &Args) -> Result<(), AnyError> {
     let mesh = load_scene(&args.scene)?;
-    let tree = KdTree::build(&mesh, &BuildParams::default())?;
+    let tree = KdTree::build(&mesh, &BuildParams::for_mesh(&mesh))?;
     let tracer = Tracer::new(&tree);
     let (width, height) = (args.size.0 as usize, args.size.1 as usize);
     let mut window = Window::new(

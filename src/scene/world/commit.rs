@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::top_level::TopLevel;
 use super::transform::world_box;
-use super::{GeometryId, InstanceId, Scene, SceneHit};
+use super::{tree_params, GeometryId, InstanceId, Scene, SceneHit};
 use crate::kdtree::KdTree;
 use crate::scene::Mesh;
 use crate::Result;
@@ -71,8 +71,9 @@ impl Scene {
             .filter(|(_, g)| g.tree.is_none())
             .map(|(id, g)| (id, Arc::clone(&g.mesh)))
             .collect();
-        let params = &self.params;
-        let build = |(id, mesh): &(u32, Arc<Mesh>)| (*id, KdTree::build(mesh, params));
+        let set = self.params;
+        let build =
+            |(id, mesh): &(u32, Arc<Mesh>)| (*id, KdTree::build(mesh, &tree_params(set, mesh)));
         #[cfg(feature = "parallel")]
         let built: Vec<_> = todo.par_iter().map(build).collect();
         #[cfg(not(feature = "parallel"))]

@@ -7,6 +7,7 @@ use glam::{Affine3A, Vec3};
 
 use super::transform::checked_inverse;
 use super::{Geometry, GeometryId, Instance, InstanceId, Scene};
+use crate::kdtree::KdTree;
 use crate::scene::Mesh;
 use crate::{Error, Result};
 
@@ -45,6 +46,15 @@ impl Scene {
     /// [`Error::UnknownGeometry`] for an id that names no mesh of this scene.
     pub fn mesh(&self, geometry: GeometryId) -> Result<&Mesh> {
         Ok(&self.geometry(geometry)?.mesh)
+    }
+
+    /// The kd-tree of `geometry`'s mesh as last added or updated, once a commit has built it
+    /// (`None` before): its nodes, leaves, bounds and build statistics.
+    ///
+    /// # Errors
+    /// [`Error::UnknownGeometry`] for an id that names no mesh of this scene.
+    pub fn tree(&self, geometry: GeometryId) -> Result<Option<&KdTree>> {
+        Ok(self.geometry(geometry)?.tree.as_deref())
     }
 
     /// Gives `geometry` new vertex positions, its faces unchanged (a deforming mesh); the next
@@ -193,7 +203,7 @@ impl Scene {
         Ok(())
     }
 
-    fn geometry(&self, geometry: GeometryId) -> Result<&Geometry> {
+    pub(super) fn geometry(&self, geometry: GeometryId) -> Result<&Geometry> {
         self.geometries
             .get(geometry.0)
             .ok_or(Error::UnknownGeometry(geometry.0))

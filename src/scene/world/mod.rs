@@ -83,7 +83,8 @@ use ids::Slots;
 pub struct Scene {
     geometries: Slots<Geometry>,
     instances: Slots<Instance>,
-    params: BuildParams,
+    /// The parameters of every mesh's tree; `None`: each mesh's own ([`BuildParams::for_mesh`]).
+    params: Option<BuildParams>,
     intersector: Intersector,
     /// The ISA of single rays and packets inside instances, resolved once, when the scene is
     /// made (as [`crate::Tracer::new`] resolves its own), or set by [`Scene::set_isa`].
@@ -91,6 +92,11 @@ pub struct Scene {
     /// Something changed since the last commit.
     changed: bool,
     committed: Option<Committed>,
+}
+
+/// The parameters of `mesh`'s tree: those `set` for every mesh, or else its own.
+fn tree_params(set: Option<BuildParams>, mesh: &Mesh) -> BuildParams {
+    set.unwrap_or_else(|| BuildParams::for_mesh(mesh))
 }
 
 /// A mesh, its tree once built, and where it is traced.
@@ -121,13 +127,14 @@ impl Default for Scene {
 }
 
 impl Scene {
-    /// An empty scene with the default build parameters and intersector.
+    /// An empty scene with the default intersector, each mesh's tree sized by its own
+    /// triangles ([`BuildParams::for_mesh`]).
     #[must_use]
     pub fn new() -> Self {
         Scene {
             geometries: Slots::new("geometry"),
             instances: Slots::new("instance"),
-            params: BuildParams::default(),
+            params: None,
             intersector: Intersector::default(),
             dispatch: Dispatch::preferred(),
             changed: true,
@@ -171,24 +178,71 @@ impl Scene {
         Ok(())
     }
 
-    /// The kd-tree build parameters.
+    /// The kd-tree build parameters set for every mesh ([`Scene::set_build_params`]), or
+    /// `None` (the default) when each mesh's tree is sized by its own triangles,
+    /// [`BuildParams::for_mesh`].
     #[must_use]
-    pub fn build_params(&self) -> &BuildParams {
-        &self.params
+    pub fn build_params(&self) -> Option<&BuildParams> {
+        self.params.as_ref()
     }
 
-    /// Sets the kd-tree build parameters; the next commit rebuilds every mesh's tree with them.
+    /// The parameters `geometry`'s tree is built with: those set for every mesh, or else its
+    /// own ([`BuildParams::for_mesh`] of its mesh as last added or updated).
+    ///
+    /// ```
+    /// use kdbeam::scene::world::Scene;
+    /// use kdbeam::{BuildParams, Mesh};
+    ///
+    /// // A large triangle beside a small one: its own tree is bigger than the default.
+    /// let uneven = Mesh::from_soup(&[
+    ///     [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0],
+    ///     [0.0, 0.0, 1.0], [10.0, 0.0, 1.0], [0.0, 10.0, 1.0],
+    /// ])?;
+    /// let mut scene = Scene::new();
+    /// let id = scene.add_mesh(uneven.clone())?;
+    /// assert_eq!(scene.geometry_build_params(id)?, BuildParams::for_mesh(&uneven));
+    ///
+    /// scene.set_build_params(BuildParams::default())?;
+    /// assert_eq!(scene.geometry_build_params(id)?, BuildParams::default());
+    /// scene.reset_build_params();
+    /// assert_eq!(scene.build_params(), None);
+    /// # Ok::<(), kdbeam::Error>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`crate::Error::UnknownGeometry`] for an id that names no mesh of this scene.
+    pub fn geometry_build_params(&self, geometry: GeometryId) -> crate::Result<BuildParams> {
+        Ok(tree_params(self.params, &self.geometry(geometry)?.mesh))
+    }
+
+    /// Sets the kd-tree build parameters of every mesh; the next commit rebuilds the trees
+    /// (none when `params` are those already set).
     ///
     /// # Errors
     /// As [`BuildParams::validate`]; the scene is unchanged then.
     pub fn set_build_params(&mut self, params: BuildParams) -> crate::Result<()> {
         params.validate()?;
-        self.params = params;
+        if self.params != Some(params) {
+            self.params = Some(params);
+            self.drop_trees();
+        }
+        Ok(())
+    }
+
+    /// Back to the default: each mesh's tree sized by its own triangles
+    /// ([`BuildParams::for_mesh`]); the next commit rebuilds the trees if parameters were set.
+    pub fn reset_build_params(&mut self) {
+        if self.params.take().is_some() {
+            self.drop_trees();
+        }
+    }
+
+    /// Has the next commit rebuild every mesh's tree.
+    fn drop_trees(&mut self) {
         for (_, g) in self.geometries.iter_mut() {
             g.tree = None;
         }
         self.changed = true;
-        Ok(())
     }
 
     /// How many meshes the scene holds (as edited, committed or not).
