@@ -73,8 +73,9 @@ pub(crate) struct BenchArgs {
     #[arg(long, value_delimiter = ',', default_value = "none,auto")]
     culling: Vec<Culling>,
     /// SAH cost ratios of the kd-trees to measure, comma separated: one tree per value
-    /// (default: the tree each measured ISA traces these rays on, 0.05 for primary and shadow
-    /// rays; for random, AO and diffuse rays 0.3 below 16 lanes, 0.05 on AVX-512).
+    /// (default: the tree each measured ISA traces these rays on: for primary and shadow rays
+    /// the scene's own, `BuildParams::for_mesh`, 0.05 for even triangles; for random, AO and
+    /// diffuse rays 0.3 below 16 lanes, 0.05 on AVX-512).
     #[arg(long, value_delimiter = ',')]
     ci_over_ct: Vec<f32>,
     /// Worker thread counts to measure, comma separated.
