@@ -765,7 +765,8 @@ fn each_mesh_gets_its_own_tree_until_parameters_are_set() {
     );
     assert_eq!(nodes(&scene, u), built_nodes(&own));
 
-    // Set for every mesh: both trees rebuilt with them; the same again rebuilds nothing.
+    // Set for every mesh: the trees built with others are rebuilt; the same again rebuilds
+    // nothing.
     let set = BuildParams::default().with_ci_over_ct(1.0);
     scene.set_build_params(set).unwrap();
     assert_eq!(scene.build_params(), Some(&set));
@@ -781,6 +782,16 @@ fn each_mesh_gets_its_own_tree_until_parameters_are_set() {
     assert!(scene.has_changes());
     scene.commit().unwrap();
     assert_eq!(nodes(&scene, u), built_nodes(&own));
+
+    // The default set on a scene of even triangles: the trees already have it.
+    let mut even_only = Scene::new();
+    even_only.add_mesh(icosphere(Vec3::ZERO, 1.0, 2)).unwrap();
+    even_only.commit().unwrap();
+    even_only.set_build_params(BuildParams::default()).unwrap();
+    assert!(!even_only.has_changes());
+    even_only.reset_build_params();
+    assert!(!even_only.has_changes());
+
     assert!(matches!(
         scene.geometry_build_params(GeometryId(7)),
         Err(Error::UnknownGeometry(7))

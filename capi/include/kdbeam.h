@@ -335,7 +335,7 @@ int kdbeam_scene_get_geometry_build_params(const KdbeamScene *scene,
 
 /**
  * Sets the build parameters of every mesh of the scene; the next commit rebuilds the trees
- * (none when they are those already set). Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
+ * built with others. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
  * `KDBEAM_ERROR_INVALID_ARGUMENT` for a value out of its range (a NaN or non-positive
  * `ci_over_ct`, an `empty_bonus` outside `[0, 1)`, a `max_depth` above 64, a `leaf_size` of
  * 0), which leaves the scene unchanged. Must not overlap any other call on this scene.
@@ -347,7 +347,7 @@ int kdbeam_scene_set_build_params(KdbeamScene *scene, const KdbeamBuildParams *p
 
 /**
  * Back to the default: each mesh's tree sized by its own triangles; the next commit rebuilds
- * the trees if parameters were set. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
+ * the trees built with others. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
  * overlap any other call on this scene.
  *
  * # Safety

@@ -633,7 +633,7 @@ pub unsafe extern "C" fn kdbeam_scene_get_geometry_build_params(
 }
 
 /// Sets the build parameters of every mesh of the scene; the next commit rebuilds the trees
-/// (none when they are those already set). Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
+/// built with others. Returns 0, `KDBEAM_ERROR_NULL_POINTER`, or
 /// `KDBEAM_ERROR_INVALID_ARGUMENT` for a value out of its range (a NaN or non-positive
 /// `ci_over_ct`, an `empty_bonus` outside `[0, 1)`, a `max_depth` above 64, a `leaf_size` of
 /// 0), which leaves the scene unchanged. Must not overlap any other call on this scene.
@@ -659,7 +659,7 @@ pub unsafe extern "C" fn kdbeam_scene_set_build_params(
 }
 
 /// Back to the default: each mesh's tree sized by its own triangles; the next commit rebuilds
-/// the trees if parameters were set. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
+/// the trees built with others. Returns 0, or `KDBEAM_ERROR_NULL_POINTER`. Must not
 /// overlap any other call on this scene.
 ///
 /// # Safety

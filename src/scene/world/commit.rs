@@ -72,8 +72,10 @@ impl Scene {
             .map(|(id, g)| (id, Arc::clone(&g.mesh)))
             .collect();
         let set = self.params;
-        let build =
-            |(id, mesh): &(u32, Arc<Mesh>)| (*id, KdTree::build(mesh, &tree_params(set, mesh)));
+        let build = |(id, mesh): &(u32, Arc<Mesh>)| {
+            let params = tree_params(set, mesh);
+            (*id, KdTree::build(mesh, &params).map(|tree| (tree, params)))
+        };
         #[cfg(feature = "parallel")]
         let built: Vec<_> = todo.par_iter().map(build).collect();
         #[cfg(not(feature = "parallel"))]
@@ -81,9 +83,9 @@ impl Scene {
         let mut first_error = None;
         for (id, tree) in built {
             match tree {
-                Ok(tree) => {
+                Ok((tree, params)) => {
                     if let Some(g) = self.geometries.get_mut(id) {
-                        g.tree = Some(Arc::new(tree));
+                        g.tree = Some((Arc::new(tree), params));
                     }
                 }
                 Err(e) => {
@@ -101,7 +103,7 @@ impl Scene {
             Some(Blas {
                 geometry: id,
                 mesh: Arc::clone(&g.mesh),
-                tree: Arc::clone(g.tree.as_ref()?),
+                tree: Arc::clone(&g.tree.as_ref()?.0),
             })
         }));
         c.entries.clear();

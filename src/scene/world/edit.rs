@@ -48,13 +48,17 @@ impl Scene {
         Ok(&self.geometry(geometry)?.mesh)
     }
 
-    /// The kd-tree of `geometry`'s mesh as last added or updated, once a commit has built it
-    /// (`None` before): its nodes, leaves, bounds and build statistics.
+    /// The kd-tree the last commit built for `geometry`'s mesh as last added or updated
+    /// (`None` until a commit has built it): its nodes, leaves, bounds and build statistics.
     ///
     /// # Errors
     /// [`Error::UnknownGeometry`] for an id that names no mesh of this scene.
     pub fn tree(&self, geometry: GeometryId) -> Result<Option<&KdTree>> {
-        Ok(self.geometry(geometry)?.tree.as_deref())
+        Ok(self
+            .geometry(geometry)?
+            .tree
+            .as_ref()
+            .map(|(tree, _)| &**tree))
     }
 
     /// Gives `geometry` new vertex positions, its faces unchanged (a deforming mesh); the next

@@ -103,8 +103,9 @@ fn tree_params(set: Option<BuildParams>, mesh: &Mesh) -> BuildParams {
 #[derive(Debug)]
 struct Geometry {
     mesh: Arc<Mesh>,
-    /// `None` until the next commit builds it (new or updated mesh).
-    tree: Option<Arc<KdTree>>,
+    /// The tree and the parameters it was built with; `None` until the next commit builds it
+    /// (a new or updated mesh, or other parameters).
+    tree: Option<(Arc<KdTree>, BuildParams)>,
     /// Traced in world space as it is, besides its instances.
     as_is: bool,
     /// How many instances use it.
@@ -216,7 +217,7 @@ impl Scene {
     }
 
     /// Sets the kd-tree build parameters of every mesh; the next commit rebuilds the trees
-    /// (none when `params` are those already set).
+    /// built with others.
     ///
     /// # Errors
     /// As [`BuildParams::validate`]; the scene is unchanged then.
@@ -224,25 +225,32 @@ impl Scene {
         params.validate()?;
         if self.params != Some(params) {
             self.params = Some(params);
-            self.drop_trees();
+            self.retire_trees();
         }
         Ok(())
     }
 
     /// Back to the default: each mesh's tree sized by its own triangles
-    /// ([`BuildParams::for_mesh`]); the next commit rebuilds the trees if parameters were set.
+    /// ([`BuildParams::for_mesh`]); the next commit rebuilds the trees built with others.
     pub fn reset_build_params(&mut self) {
         if self.params.take().is_some() {
-            self.drop_trees();
+            self.retire_trees();
         }
     }
 
-    /// Has the next commit rebuild every mesh's tree.
-    fn drop_trees(&mut self) {
+    /// Has the next commit rebuild the trees built with other parameters than the scene now
+    /// gives their meshes.
+    fn retire_trees(&mut self) {
+        let set = self.params;
         for (_, g) in self.geometries.iter_mut() {
-            g.tree = None;
+            if g.tree
+                .as_ref()
+                .is_some_and(|(_, built)| *built != tree_params(set, &g.mesh))
+            {
+                g.tree = None;
+                self.changed = true;
+            }
         }
-        self.changed = true;
     }
 
     /// How many meshes the scene holds (as edited, committed or not).
