@@ -213,7 +213,13 @@ impl Scene {
     /// # Errors
     /// [`crate::Error::UnknownGeometry`] for an id that names no mesh of this scene.
     pub fn geometry_build_params(&self, geometry: GeometryId) -> crate::Result<BuildParams> {
-        Ok(tree_params(self.params, &self.geometry(geometry)?.mesh))
+        let g = self.geometry(geometry)?;
+        // A tree still held was built with what the scene gives its mesh now (`retire_trees`),
+        // so its parameters spare measuring the mesh again.
+        Ok(match &g.tree {
+            Some((_, built)) => *built,
+            None => tree_params(self.params, &g.mesh),
+        })
     }
 
     /// Sets the kd-tree build parameters of every mesh; the next commit rebuilds the trees
