@@ -29,6 +29,7 @@ use glam::{Vec3, Vec3A};
 use crate::aabb::Aabb;
 use crate::intersect::splat3;
 use crate::lanes::{LaneF32, Lanes};
+use crate::ray::Ray;
 
 /// Clips `[near, far]` by the three slabs of `[lo, hi]` (see the module documentation).
 #[inline(always)]
@@ -103,6 +104,37 @@ pub fn clip_planes_fused<F: LaneF32>(
         far = exit[k].mul_add(inv_direction[k], offset[k]).min(far);
     }
     (near, far)
+}
+
+/// The part of `[tmin, tmax]` over which `o + t·d` lies in the closed box `b`, in `f64` with the
+/// true `1/d`: the reference the `f32` clips are checked against. `d = ±0` gives `±inf`
+/// distances, and a NaN distance (`0·inf`, an origin on a plane the ray lies in) constrains
+/// nothing; `None` when the interval is empty.
+///
+/// ```
+/// use kdbeam_kernels::slab::exact_interval;
+/// use kdbeam_kernels::{Aabb, Ray, Vec3};
+///
+/// let ray = Ray::new(Vec3::new(0.0, 0.5, 0.5), Vec3::new(3.0, 0.0, 0.0));
+/// let unit = Aabb::new(Vec3::ZERO, Vec3::ONE);
+/// assert_eq!(exact_interval(&ray, &unit), Some((0.0, 1.0 / 3.0)));
+/// ```
+#[must_use]
+pub fn exact_interval(ray: &Ray, b: &Aabb) -> Option<(f64, f64)> {
+    let (mut n, mut f) = (f64::from(ray.tmin), f64::from(ray.tmax));
+    for k in 0..3 {
+        let (o, inv) = (f64::from(ray.origin[k]), 1.0 / f64::from(ray.direction[k]));
+        let (lo, hi) = (f64::from(b.min[k]), f64::from(b.max[k]));
+        let (enter, exit) = if inv < 0.0 { (hi, lo) } else { (lo, hi) };
+        let (te, tx) = ((enter - o) * inv, (exit - o) * inv);
+        if !te.is_nan() {
+            n = n.max(te);
+        }
+        if !tx.is_nan() {
+            f = f.min(tx);
+        }
+    }
+    (n <= f).then_some((n, f))
 }
 
 /// The offsets of [`clip_planes_fused`]: `−o·inv` per axis, NaN where `inv` is finite and the

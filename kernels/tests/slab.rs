@@ -6,7 +6,9 @@ mod common;
 
 use common::{gather, lanes_of, same, Rng};
 use kdbeam_kernels::lanes::Dispatch;
-use kdbeam_kernels::slab::{clip_planes, clip_planes_fused, fused_offsets, ray_box, slab_lanes};
+use kdbeam_kernels::slab::{
+    clip_planes, clip_planes_fused, exact_interval, fused_offsets, ray_box, slab_lanes,
+};
 use kdbeam_kernels::{Aabb, Isa, LaneF32, LaneMask, LaneTask, Lanes, Ray, Vec3};
 
 fn unit_box() -> Aabb {
@@ -400,25 +402,6 @@ impl LaneTask for FusedHoldsExact {
         }
         (failures, entered)
     }
-}
-
-/// The part of `[tmin, tmax]` where `o + t·d` lies in the closed box `b`, in `f64` with the
-/// true `1/d` (`±inf` for `d = ±0`; a NaN distance, `0·inf`, constrains nothing).
-fn exact_interval(ray: &Ray, b: &Aabb) -> Option<(f64, f64)> {
-    let (mut n, mut f) = (f64::from(ray.tmin), f64::from(ray.tmax));
-    for k in 0..3 {
-        let (o, inv) = (f64::from(ray.origin[k]), 1.0 / f64::from(ray.direction[k]));
-        let (lo, hi) = (f64::from(b.min[k]), f64::from(b.max[k]));
-        let (enter, exit) = if inv < 0.0 { (hi, lo) } else { (lo, hi) };
-        let (te, tx) = ((enter - o) * inv, (exit - o) * inv);
-        if !te.is_nan() {
-            n = n.max(te);
-        }
-        if !tx.is_nan() {
-            f = f.min(tx);
-        }
-    }
-    (n <= f).then_some((n, f))
 }
 
 #[test]
