@@ -12,7 +12,10 @@
 //!
 //! Every box is padded outward by [`BOX_PAD`] of its size and position: a triangle's part in a
 //! cell, clipped with rounding, and a hit that the triangle test reports on its edge lie inside
-//! the padded box of every leaf that holds the triangle.
+//! the padded box of every leaf that holds the triangle. It is padded further by a part of the
+//! tree's magnitude ([`WideNodes::reach`]), which holds the rounding of a ray's fused plane
+//! distances when its origin lies within that magnitude, so that such rays take their boxes'
+//! intervals as computed.
 
 use kdbeam_kernels::{Aabb, Vec3};
 #[cfg(feature = "parallel")]
@@ -104,10 +107,26 @@ impl WideNode {
 }
 
 /// The wide nodes of a kd-tree, root first.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct WideNodes {
     nodes: Vec<WideNode>,
+    reach: f32,
 }
+
+impl Default for WideNodes {
+    fn default() -> Self {
+        WideNodes {
+            nodes: Vec::new(),
+            reach: f32::NEG_INFINITY,
+        }
+    }
+}
+
+/// The part of a kd-tree's magnitude `M` (its largest coordinate) that pads every box of its
+/// wide nodes besides [`BOX_PAD`]: it holds the rounding of a fused plane distance, at most
+/// 2⁻²⁴·(3|plane| + 3|o|) in space, for every ray whose origin lies within `M` on every
+/// axis, with room to spare (`2⁻¹⁹·M` against `6·2⁻²⁴·M`).
+const REACH_PAD: f32 = 1.0 / 524_288.0;
 
 impl WideNodes {
     /// The nodes; node 0 is the root (without children for a tree with no triangles).
@@ -115,6 +134,15 @@ impl WideNodes {
     #[must_use]
     pub fn nodes(&self) -> &[WideNode] {
         &self.nodes
+    }
+
+    /// The largest `|o|` on every axis of a ray whose walk needs no widening of its boxes'
+    /// intervals: the tree's magnitude, whose [`REACH_PAD`] pads every box; `−inf` for nodes
+    /// not padded so (a scene's top level).
+    #[inline(always)]
+    #[must_use]
+    pub fn reach(&self) -> f32 {
+        self.reach
     }
 
     /// Bytes the nodes take.
@@ -135,7 +163,23 @@ impl WideNodes {
         let parallel = rayon::current_num_threads() > 1 && nodes.len() >= PARALLEL_MIN_NODES;
         #[cfg(not(feature = "parallel"))]
         let parallel = false;
-        subtree_boxes(nodes, leaves, boxes, parallel);
+        let magnitude = leaves
+            .iter()
+            .filter(|leaf| leaf.count > 0 && !leaf.bounds.is_empty())
+            .map(|leaf| {
+                leaf.bounds
+                    .min
+                    .abs()
+                    .max(leaf.bounds.max.abs())
+                    .max_element()
+            })
+            .fold(0.0, f32::max);
+        let padded_leaves = PaddedLeaves {
+            nodes,
+            leaves,
+            reach_pad: magnitude * REACH_PAD,
+        };
+        subtree_boxes(padded_leaves, boxes, parallel);
         let tree = KdSubtrees {
             nodes,
             leaves,
@@ -143,9 +187,12 @@ impl WideNodes {
         };
         #[cfg(feature = "parallel")]
         if parallel {
-            return self.collapse_in_parallel(&tree);
+            self.collapse_in_parallel(&tree);
+            self.reach = magnitude;
+            return;
         }
         self.collapse(&tree);
+        self.reach = magnitude;
     }
 
     /// Replaces the nodes with those of the binary tree `tree`, at most 64 levels deep.
@@ -157,6 +204,7 @@ impl WideNodes {
     /// at most one child), so that a path meets at most ⌈64 / 3⌉ wide nodes in a tree at most
     /// 64 deep: what [`WIDE_STACK`] holds.
     pub(crate) fn collapse(&mut self, tree: &impl BinaryBoxes) {
+        self.reach = f32::NEG_INFINITY;
         self.nodes.clear();
         self.nodes.push(WideNode::NONE);
         collapse_into(tree, 0, &mut self.nodes, None);
@@ -335,27 +383,36 @@ impl BinaryBoxes for KdSubtrees<'_> {
 /// their parent in `nodes`, so one backward pass joins them; with `parallel`, the two
 /// subtrees of a large node are joined side by side (a subtree's nodes are contiguous, depth
 /// first).
-fn subtree_boxes(nodes: &[Node], leaves: &[LeafRecord], boxes: &mut Vec<Aabb>, parallel: bool) {
+fn subtree_boxes(tree: PaddedLeaves<'_>, boxes: &mut Vec<Aabb>, parallel: bool) {
+    let nodes = tree.nodes;
     #[cfg(feature = "parallel")]
     if parallel {
         pages::zeroed(boxes, nodes.len(), Aabb::EMPTY);
-        join_boxes_in_parallel(nodes, leaves, 0, boxes);
+        join_boxes_in_parallel(tree, 0, boxes);
         return;
     }
     let _ = parallel;
     boxes.clear();
     pages::reserve(boxes, nodes.len());
     boxes.resize(nodes.len(), Aabb::EMPTY);
-    join_boxes(nodes, leaves, 0, boxes);
+    join_boxes(tree, 0, boxes);
 }
 
-/// Writes the box of every node of the subtree whose nodes are `nodes[first..][..out.len()]`
+/// A kd-tree's nodes and leaves, and the absolute padding of its leaves' boxes.
+#[derive(Clone, Copy)]
+struct PaddedLeaves<'a> {
+    nodes: &'a [Node],
+    leaves: &'a [LeafRecord],
+    reach_pad: f32,
+}
+
+/// Writes the box of every node of the subtree whose nodes are `tree.nodes[first..][..out.len()]`
 /// to `out`, by one backward pass; returns the subtree's box.
-fn join_boxes(nodes: &[Node], leaves: &[LeafRecord], first: usize, out: &mut [Aabb]) -> Aabb {
+fn join_boxes(tree: PaddedLeaves<'_>, first: usize, out: &mut [Aabb]) -> Aabb {
     for i in (0..out.len()).rev() {
-        let node = nodes[first + i];
+        let node = tree.nodes[first + i];
         out[i] = if node.is_leaf() {
-            leaf_box(&leaves[node.leaf_record() as usize])
+            leaf_box(&tree.leaves[node.leaf_record() as usize], tree.reach_pad)
         } else {
             out[i + 1].union(out[node.above_child() as usize - first])
         };
@@ -366,43 +423,155 @@ fn join_boxes(nodes: &[Node], leaves: &[LeafRecord], first: usize, out: &mut [Aa
 /// [`join_boxes`], the two subtrees of a node of at least [`PARALLEL_MIN_NODES`] nodes
 /// joined in parallel.
 #[cfg(feature = "parallel")]
-fn join_boxes_in_parallel(
-    nodes: &[Node],
-    leaves: &[LeafRecord],
-    first: usize,
-    out: &mut [Aabb],
-) -> Aabb {
-    let node = nodes[first];
+fn join_boxes_in_parallel(tree: PaddedLeaves<'_>, first: usize, out: &mut [Aabb]) -> Aabb {
+    let node = tree.nodes[first];
     if out.len() < PARALLEL_MIN_NODES || node.is_leaf() {
-        return join_boxes(nodes, leaves, first, out);
+        return join_boxes(tree, first, out);
     }
     let above = node.above_child() as usize;
     let (own, rest) = out.split_at_mut(1);
     let (below_out, above_out) = rest.split_at_mut(above - first - 1);
     let (below, above) = rayon::join(
-        || join_boxes_in_parallel(nodes, leaves, first + 1, below_out),
-        || join_boxes_in_parallel(nodes, leaves, above, above_out),
+        || join_boxes_in_parallel(tree, first + 1, below_out),
+        || join_boxes_in_parallel(tree, above, above_out),
     );
     own[0] = below.union(above);
     own[0]
 }
 
 /// A leaf's padded box: empty for a leaf of no triangle.
-fn leaf_box(leaf: &LeafRecord) -> Aabb {
+fn leaf_box(leaf: &LeafRecord, reach_pad: f32) -> Aabb {
     match (leaf.count, leaf.bounds.is_empty()) {
         (0, _) => Aabb::EMPTY,
         // The builder never makes this; were it to, the leaf would stay reachable.
         (_, true) => Aabb::new(Vec3::NEG_INFINITY, Vec3::INFINITY),
-        (_, false) => padded(leaf.bounds),
+        (_, false) => padded(leaf.bounds, reach_pad),
     }
 }
 
-/// `b` grown by [`BOX_PAD`] of its extent and its coordinates' magnitude on every side.
-fn padded(b: Aabb) -> Aabb {
+/// `b` grown by [`BOX_PAD`] of its extent and its coordinates' magnitude, and by `reach_pad`,
+/// on every side.
+fn padded(b: Aabb, reach_pad: f32) -> Aabb {
     if b.is_empty() {
         return b;
     }
-    let pad = (b.extent() + b.min.abs().max(b.max.abs())) * BOX_PAD;
+    let pad = (b.extent() + b.min.abs().max(b.max.abs())) * BOX_PAD + Vec3::splat(reach_pad);
     let pad = pad.max(Vec3::splat(f32::MIN_POSITIVE));
     Aabb::new(b.min - pad, b.max + pad)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{padded, REACH_PAD};
+    use crate::scene::rng::Rng;
+    use kdbeam_kernels::slab::{exact_interval, fused_offsets};
+    use kdbeam_kernels::{Aabb, Ray, Vec3};
+
+    /// The walk's interval of box `b` for `ray` (origin `o`, direction `d`, from `tmin`), its
+    /// plane distances `plane·inv + offset` rounded once (`fused`) or twice.
+    fn computed(o: Vec3, d: Vec3, tmin: f32, b: &Aabb, fused: bool) -> (f32, f32) {
+        let inv = d.recip();
+        let offset = fused_offsets(o, inv);
+        let (mut n, mut f) = (tmin, f32::INFINITY);
+        for k in 0..3 {
+            let (enter, exit) = if inv[k] < 0.0 {
+                (b.max[k], b.min[k])
+            } else {
+                (b.min[k], b.max[k])
+            };
+            let t = |p: f32| {
+                if fused {
+                    p.mul_add(inv[k], offset[k])
+                } else {
+                    p * inv[k] + offset[k]
+                }
+            };
+            // NaN constrains nothing, as `maxps`/`minps` with the new value first.
+            let (te, tx) = (t(enter), t(exit));
+            n = if te > n { te } else { n };
+            f = if tx < f { tx } else { f };
+        }
+        (n, f)
+    }
+
+    /// A ray from within a tree's magnitude `M`, its box intervals taken as computed (fused or
+    /// not: every ISA's arithmetic), holds the exact interval of every box it meets once the
+    /// box carries `REACH_PAD·M` besides `BOX_PAD`: small boxes near 0 met by rays from `±M`,
+    /// boxes at `±M`, tiny and zero direction components, origins on face planes.
+    #[test]
+    fn the_reach_padding_holds_the_rounding_of_rays_from_within_it() {
+        let mut rng = Rng::new(41);
+        let (mut met, mut failures) = (0, Vec::new());
+        for _ in 0..200_000 {
+            let m = [1e-3, 1.0, 7.0, 1e4][rng.below(4) as usize];
+            let coordinate = |rng: &mut Rng| rng.range(-m, m);
+            let size = m * [1e-6, 1e-3, 0.1, 1.0][rng.below(4) as usize];
+            let corner = Vec3::new(
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+            ) * [1.0, 1e-3][rng.below(2) as usize];
+            let far = corner
+                + Vec3::new(
+                    rng.range(0.0, size),
+                    rng.range(0.0, size),
+                    rng.range(0.0, size),
+                );
+            let b = Aabb::new(corner.max(Vec3::splat(-m)), far.min(Vec3::splat(m)));
+            let mut o = Vec3::new(
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+                coordinate(&mut rng),
+            );
+            let mut d = Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+            );
+            for k in 0..3 {
+                match rng.below(8) {
+                    0 => o[k] = if rng.below(2) == 0 { m } else { -m },
+                    1 => o[k] = b.min[k],
+                    2 => d[k] = 0.0,
+                    3 => d[k] = 1e-20,
+                    _ => {}
+                }
+            }
+            // Aim at the box in half the rays, so that many are met.
+            if rng.below(2) == 0 {
+                d = b.center() - o;
+            }
+            let tmin = if rng.below(2) == 0 {
+                0.0
+            } else {
+                rng.range(0.0, 1.0)
+            };
+            let ray = Ray {
+                origin: o,
+                direction: d,
+                tmin,
+                tmax: f32::INFINITY,
+            };
+            let Some((n, f)) = exact_interval(&ray, &padded(b, 0.0)) else {
+                continue;
+            };
+            met += 1;
+            let reach_padded = padded(b, m * REACH_PAD);
+            for fused in [true, false] {
+                let (cn, cf) = computed(o, d, tmin, &reach_padded, fused);
+                if !(f64::from(cn) <= n && f64::from(cf) >= f) {
+                    failures.push(format!(
+                        "fused {fused}: ({cn}, {cf}) misses ({n}, {f}): o {o} d {d} {b:?} m {m}"
+                    ));
+                }
+            }
+        }
+        assert!(
+            failures.is_empty(),
+            "{} failures, first {:#?}",
+            failures.len(),
+            &failures[..failures.len().min(4)]
+        );
+        assert!(met > 50_000, "only {met} boxes met");
+    }
 }

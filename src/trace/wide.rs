@@ -26,7 +26,7 @@ use kdbeam_kernels::slab::{clip_planes_fused, fused_offsets};
 use kdbeam_kernels::{LaneF32, LaneMask, Lanes, Ray};
 
 use super::single::{is_traceable, visit_leaf, LeafVisitor, INTERVAL_EPS};
-use crate::kdtree::{KdTree, WideChild, WideNode, WIDE, WIDE_STACK};
+use crate::kdtree::{KdTree, WideChild, WideNode, WideNodes, WIDE, WIDE_STACK};
 
 /// Walks the leaves of `tree` that `ray` enters, by its wide nodes, until `visitor` has its
 /// answer; `L` (at most [`WIDE`] lanes) tests a vector of children per step.
@@ -35,12 +35,7 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor>(l: L, tree: &KdTree, ray: &Ray,
     if !is_traceable(ray) {
         return;
     }
-    walk(
-        l,
-        tree.wide_nodes().nodes(),
-        ray,
-        &mut KdLeaves { tree, visitor },
-    );
+    walk(l, tree.wide_nodes(), ray, &mut KdLeaves { tree, visitor });
 }
 
 /// [`traverse`] of two rays, interleaved ([`walk_pair`]); each visitor sees what its ray's own
@@ -56,7 +51,7 @@ pub(crate) fn traverse_pair<L: Lanes, V: LeafVisitor>(
     match (is_traceable(rays[0]), is_traceable(rays[1])) {
         (true, true) => walk_pair(
             l,
-            tree.wide_nodes().nodes(),
+            tree.wide_nodes(),
             rays,
             [
                 &mut KdLeaves { tree, visitor: a },
@@ -82,16 +77,16 @@ pub(crate) fn traverse_from<L: Lanes, V: LeafVisitor>(
     best_t: f32,
     visitor: &mut V,
 ) -> Option<f32> {
-    let nodes = tree.wide_nodes().nodes();
+    let wide = tree.wide_nodes();
     let mut leaves = Stops {
         leaves: KdLeaves { tree, visitor },
         stopped: false,
     };
     let mut stack = Stack::new();
-    let mut w = Walker::new(l, ray);
+    let mut w = Walker::new(l, ray, wide.reach());
     (w.child, w.t_enter, w.t_exit) = start;
     w.best_t = best_t;
-    while w.step(l, nodes, &mut stack, &mut leaves) {}
+    while w.step(l, wide.nodes(), &mut stack, &mut leaves) {}
     (!leaves.stopped).then_some(w.best_t)
 }
 
@@ -140,20 +135,24 @@ impl<V: LeafVisitor> WideLeaves for KdLeaves<'_, V> {
     }
 }
 
-/// Has `leaves` visit the leaves of the wide nodes `nodes` (root first) whose boxes the
+/// Has `leaves` visit the leaves of the wide nodes `wide` (root first) whose boxes the
 /// traceable `ray` enters, each over its box's interval, nearest entry first, until it stops.
 ///
-/// A box is entered over its slab interval widened by the slack of the binary traversal
-/// ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`: sixteen times the
-/// rounding of the fused `plane·inv − o·inv`), and skipped once the closest hit so far lies
-/// strictly before it. No nodes: no leaf.
+/// A box is entered over its slab interval computed by the fused `plane·inv − o·inv`, and
+/// skipped once the closest hit so far lies strictly before it. A ray with `tmin >= 0` whose
+/// origin lies within the nodes' reach ([`WideNodes::reach`]) takes the interval as computed:
+/// the boxes' padding holds its rounding in space, so the widening, two operations on the
+/// chain from one node to the next, is not needed. Other rays widen it by the slack of the
+/// binary traversal ([`INTERVAL_EPS`] of `|t|` plus the ray's largest finite `|o·inv|`:
+/// sixteen times the rounding). No nodes: no leaf.
 #[inline(always)]
-pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut impl WideLeaves) {
+pub(crate) fn walk<L: Lanes>(l: L, wide: &WideNodes, ray: &Ray, leaves: &mut impl WideLeaves) {
+    let nodes = wide.nodes();
     if nodes.is_empty() {
         return;
     }
     let mut stack = Stack::new();
-    let mut w = Walker::new(l, ray);
+    let mut w = Walker::new(l, ray, wide.reach());
     while w.step(l, nodes, &mut stack, leaves) {}
 }
 
@@ -163,15 +162,20 @@ pub(crate) fn walk<L: Lanes>(l: L, nodes: &[WideNode], ray: &Ray, leaves: &mut i
 #[inline(always)]
 pub(crate) fn walk_pair<L: Lanes, W: WideLeaves>(
     l: L,
-    nodes: &[WideNode],
+    wide: &WideNodes,
     rays: [&Ray; 2],
     leaves: [&mut W; 2],
 ) {
+    let nodes = wide.nodes();
     if nodes.is_empty() {
         return;
     }
     let [a, b] = leaves;
-    let (mut wa, mut wb) = (Walker::new(l, rays[0]), Walker::new(l, rays[1]));
+    let reach = wide.reach();
+    let (mut wa, mut wb) = (
+        Walker::new(l, rays[0], reach),
+        Walker::new(l, rays[1], reach),
+    );
     let (mut sa, mut sb) = (Stack::new(), Stack::new());
     let (mut on_a, mut on_b) = (true, true);
     while on_a && on_b {
@@ -201,6 +205,9 @@ struct Walker<L: Lanes> {
     err: L::F32,
     /// `tmin >= 0`: every box's entry is then at least 0, and its widening one `mul_add`.
     nonnegative: bool,
+    /// `tmin >= 0` and the origin within the nodes' reach ([`WideNodes::reach`]): their boxes'
+    /// padding holds the rounding, and no interval is widened.
+    within_reach: bool,
     /// The widening of a non-negative entry `n` and exit `f` ([`Walker::step`]).
     near_scale: L::F32,
     near_shift: L::F32,
@@ -216,9 +223,9 @@ struct Walker<L: Lanes> {
 }
 
 impl<L: Lanes> Walker<L> {
-    /// At the root, over `[tmin, tmax]`.
+    /// At the root, over `[tmin, tmax]`, for nodes of reach `reach`.
     #[inline(always)]
-    fn new(l: L, ray: &Ray) -> Self {
+    fn new(l: L, ray: &Ray, reach: f32) -> Self {
         debug_assert!(L::WIDTH <= WIDE);
         let inv = Vec3A::from(ray.direction).recip();
         let offset = fused_offsets(ray.origin, inv.into());
@@ -240,6 +247,7 @@ impl<L: Lanes> Walker<L> {
             exit,
             err: l.splat(err),
             nonnegative: ray.tmin >= 0.0,
+            within_reach: ray.tmin >= 0.0 && Vec3A::from(ray.origin).abs().max_element() <= reach,
             near_scale: l.splat(1.0 - INTERVAL_EPS),
             near_shift: l.splat(-err * INTERVAL_EPS),
             far_scale: l.splat(1.0 + INTERVAL_EPS),
@@ -283,7 +291,9 @@ impl<L: Lanes> Walker<L> {
                 // where `f >= 0`, and where `f < 0` the box is entered only if `|f|` is within
                 // `2·err·eps` of 0 (as `n >= −err·eps`), which the shift's extra `8·eps` of itself
                 // covers.
-                let (n, f) = if self.nonnegative {
+                let (n, f) = if self.within_reach {
+                    (n, f)
+                } else if self.nonnegative {
                     (
                         n.mul_add(self.near_scale, self.near_shift),
                         f.mul_add(self.far_scale, self.far_shift),

@@ -265,7 +265,7 @@ impl<const ANY: bool> LaneTask for SceneRay<'_, ANY> {
 
     #[inline(always)]
     fn run<L: Lanes>(mut self, l: L) -> Self {
-        let nodes = self.c.top.wide.nodes();
+        let nodes = &self.c.top.wide;
         let ray = self.ray;
         wide::walk(l.up_to_8(), nodes, ray, &mut OnLanes { l, ray: &mut self });
         self
