@@ -14,11 +14,13 @@
 //! Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture*, IEEE
 //! TVCG 2012, which Embree's hybrid traversal follows.
 //!
-//! Each ray enters a box over the interval its own walk computes for it: the same planes chosen
-//! by the signs of its direction, the same fused distances ([`clip_planes_fused`]) and the same
-//! widening, lane by lane, up to its own closest hit so far. So every leaf its walk would need
-//! is entered, and as the closest hit does not depend on the order of the leaves
-//! ([`super::wide`]), each ray finds exactly the hit its own walk finds.
+//! Each ray enters a box over an interval that holds the one its own walk computes for it: the
+//! same planes chosen by the signs of its direction, the same fused distances
+//! ([`clip_planes_fused`]), lane by lane, up to its own closest hit so far, always widened as
+//! a walk from outside the tree's reach widens them (a walk from within takes them as computed,
+//! [`super::wide::walk`]). So every leaf its walk would need is entered, and as the closest
+//! hit does not depend on the order of the leaves ([`super::wide`]), each ray finds exactly
+//! the hit its own walk finds.
 
 use arrayvec::ArrayVec;
 use kdbeam_kernels::slab::clip_planes_fused;
@@ -36,8 +38,8 @@ const MAX_LANES: usize = 16;
 
 /// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH` (`single[i]` is ray
 /// `base + i`), each traceable ([`super::single::is_traceable`]), through `tree` together;
-/// `visitors[i]` visits the leaves of lane `i` and sees what that ray's own walk shows it, for
-/// every lane `i` of `lanes`. With
+/// `visitors[i]` visits the leaves of lane `i` that ray's own walk visits (and possibly more),
+/// each over an interval holding its own walk's, for every lane `i` of `lanes`. With
 /// `NEAREST_FIRST` (closest hits) the children a node's rays enter are taken nearest first;
 /// without (any hit) in the node's order, which saves more than a nearer first hit would.
 #[inline(always)]
@@ -202,7 +204,7 @@ impl<L: Lanes> LaneRays<L> {
     }
 
     /// Each ray's widened interval in child `k`'s box of `node` over `[tmin, tmax]`, as its
-    /// own walk computes it.
+    /// own walk computes it from outside the tree's reach.
     #[inline(always)]
     fn clip(&self, l: L, node: &WideNode, k: usize, tmax: L::F32) -> (L::F32, L::F32) {
         let (mut enter, mut exit) = ([self.tmin; 3], [self.tmin; 3]);
