@@ -180,6 +180,7 @@ impl WideNodes {
             reach_pad: magnitude * REACH_PAD,
         };
         subtree_boxes(padded_leaves, boxes, parallel);
+        self.reach = magnitude;
         let tree = KdSubtrees {
             nodes,
             leaves,
@@ -187,12 +188,9 @@ impl WideNodes {
         };
         #[cfg(feature = "parallel")]
         if parallel {
-            self.collapse_in_parallel(&tree);
-            self.reach = magnitude;
-            return;
+            return self.collapse_in_parallel(&tree);
         }
         self.collapse(&tree);
-        self.reach = magnitude;
     }
 
     /// Replaces the nodes with those of the binary tree `tree`, at most 64 levels deep.
@@ -203,8 +201,10 @@ impl WideNodes {
     /// the node's own root (two levels hold at most four nodes, and opening each of them adds
     /// at most one child), so that a path meets at most ⌈64 / 3⌉ wide nodes in a tree at most
     /// 64 deep: what [`WIDE_STACK`] holds.
+    ///
+    /// The reach is left as it is: a kd-tree's build sets it, and nodes made only by collapsing
+    /// (a scene's top level) keep the default's `−inf`, as their boxes carry no such padding.
     pub(crate) fn collapse(&mut self, tree: &impl BinaryBoxes) {
-        self.reach = f32::NEG_INFINITY;
         self.nodes.clear();
         self.nodes.push(WideNode::NONE);
         collapse_into(tree, 0, &mut self.nodes, None);
@@ -464,114 +464,124 @@ fn padded(b: Aabb, reach_pad: f32) -> Aabb {
 mod tests {
     use super::{padded, REACH_PAD};
     use crate::scene::rng::Rng;
-    use kdbeam_kernels::slab::{exact_interval, fused_offsets};
-    use kdbeam_kernels::{Aabb, Ray, Vec3};
+    use kdbeam_kernels::lanes::Dispatch;
+    use kdbeam_kernels::slab::{clip_planes_fused, exact_interval, fused_offsets};
+    use kdbeam_kernels::{Aabb, LaneTask, Lanes, Ray, Vec3};
 
-    /// The walk's interval of box `b` for `ray` (origin `o`, direction `d`, from `tmin`), its
-    /// plane distances `plane·inv + offset` rounded once (`fused`) or twice.
-    fn computed(o: Vec3, d: Vec3, tmin: f32, b: &Aabb, fused: bool) -> (f32, f32) {
-        let inv = d.recip();
-        let offset = fused_offsets(o, inv);
-        let (mut n, mut f) = (tmin, f32::INFINITY);
-        for k in 0..3 {
-            let (enter, exit) = if inv[k] < 0.0 {
-                (b.max[k], b.min[k])
-            } else {
-                (b.min[k], b.max[k])
-            };
-            let t = |p: f32| {
-                if fused {
-                    p.mul_add(inv[k], offset[k])
-                } else {
-                    p * inv[k] + offset[k]
+    /// Rays from within magnitude `m` and boxes within it: small boxes near 0 met by rays from
+    /// `±m`, boxes at `±m`, tiny and zero direction components, origins on face planes, half
+    /// of the rays aimed at their box.
+    fn rays_and_boxes(rng: &mut Rng, count: usize) -> Vec<(Ray, Aabb, f32)> {
+        (0..count)
+            .map(|_| {
+                let m = [1e-3, 1.0, 7.0, 1e4][rng.below(4) as usize];
+                let coordinate = |rng: &mut Rng| rng.range(-m, m);
+                let point =
+                    |rng: &mut Rng| Vec3::new(coordinate(rng), coordinate(rng), coordinate(rng));
+                let size = m * [1e-6, 1e-3, 0.1, 1.0][rng.below(4) as usize];
+                let corner = point(rng) * [1.0, 1e-3][rng.below(2) as usize];
+                let far = corner
+                    + Vec3::new(
+                        rng.range(0.0, size),
+                        rng.range(0.0, size),
+                        rng.range(0.0, size),
+                    );
+                let b = Aabb::new(corner.max(Vec3::splat(-m)), far.min(Vec3::splat(m)));
+                let mut o = point(rng);
+                let mut d = Vec3::new(
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                    rng.range(-1.0, 1.0),
+                );
+                for k in 0..3 {
+                    match rng.below(8) {
+                        0 => o[k] = if rng.below(2) == 0 { m } else { -m },
+                        1 => o[k] = b.min[k],
+                        2 => d[k] = 0.0,
+                        3 => d[k] = 1e-20,
+                        _ => {}
+                    }
                 }
-            };
-            // NaN constrains nothing, as `maxps`/`minps` with the new value first.
-            let (te, tx) = (t(enter), t(exit));
-            n = if te > n { te } else { n };
-            f = if tx < f { tx } else { f };
-        }
-        (n, f)
+                if rng.below(2) == 0 {
+                    d = b.center() - o;
+                }
+                let tmin = if rng.below(2) == 0 {
+                    0.0
+                } else {
+                    rng.range(0.0, 1.0)
+                };
+                let ray = Ray {
+                    origin: o,
+                    direction: d,
+                    tmin,
+                    tmax: f32::INFINITY,
+                };
+                (ray, b, m)
+            })
+            .collect()
     }
 
-    /// A ray from within a tree's magnitude `M`, its box intervals taken as computed (fused or
-    /// not: every ISA's arithmetic), holds the exact interval of every box it meets once the
-    /// box carries `REACH_PAD·M` besides `BOX_PAD`: small boxes near 0 met by rays from `±M`,
-    /// boxes at `±M`, tiny and zero direction components, origins on face planes.
-    #[test]
-    fn the_reach_padding_holds_the_rounding_of_rays_from_within_it() {
-        let mut rng = Rng::new(41);
-        let (mut met, mut failures) = (0, Vec::new());
-        for _ in 0..200_000 {
-            let m = [1e-3, 1.0, 7.0, 1e4][rng.below(4) as usize];
-            let coordinate = |rng: &mut Rng| rng.range(-m, m);
-            let size = m * [1e-6, 1e-3, 0.1, 1.0][rng.below(4) as usize];
-            let corner = Vec3::new(
-                coordinate(&mut rng),
-                coordinate(&mut rng),
-                coordinate(&mut rng),
-            ) * [1.0, 1e-3][rng.below(2) as usize];
-            let far = corner
-                + Vec3::new(
-                    rng.range(0.0, size),
-                    rng.range(0.0, size),
-                    rng.range(0.0, size),
+    /// The walk's interval of each case's box, padded by `REACH_PAD·m`, as the ISA's
+    /// `clip_planes_fused` computes it (FMA or not), unwidened; `None` for boxes the ray does not
+    /// meet exactly without that padding, and the cases whose interval misses the exact one.
+    struct WalkIntervals(Vec<(Ray, Aabb, f32)>);
+
+    impl LaneTask for WalkIntervals {
+        type Output = (usize, Vec<String>);
+
+        #[inline(always)]
+        fn run<L: Lanes>(self, l: L) -> (usize, Vec<String>) {
+            let (mut met, mut failures) = (0, Vec::new());
+            for (ray, b, m) in self.0 {
+                let Some((n, f)) = exact_interval(&ray, &padded(b, 0.0)) else {
+                    continue;
+                };
+                met += 1;
+                let reach_padded = padded(b, m * REACH_PAD);
+                let inv = ray.direction.recip();
+                let splat = |v: [f32; 3]| [l.splat(v[0]), l.splat(v[1]), l.splat(v[2])];
+                let planes = |lo: Vec3, hi: Vec3| {
+                    splat([0, 1, 2].map(|k| if inv[k] < 0.0 { hi[k] } else { lo[k] }))
+                };
+                let (near, far) = clip_planes_fused(
+                    &splat(fused_offsets(ray.origin, inv)),
+                    &splat(inv.to_array()),
+                    planes(reach_padded.min, reach_padded.max),
+                    planes(reach_padded.max, reach_padded.min),
+                    l.splat(ray.tmin),
+                    l.splat(ray.tmax),
                 );
-            let b = Aabb::new(corner.max(Vec3::splat(-m)), far.min(Vec3::splat(m)));
-            let mut o = Vec3::new(
-                coordinate(&mut rng),
-                coordinate(&mut rng),
-                coordinate(&mut rng),
-            );
-            let mut d = Vec3::new(
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-                rng.range(-1.0, 1.0),
-            );
-            for k in 0..3 {
-                match rng.below(8) {
-                    0 => o[k] = if rng.below(2) == 0 { m } else { -m },
-                    1 => o[k] = b.min[k],
-                    2 => d[k] = 0.0,
-                    3 => d[k] = 1e-20,
-                    _ => {}
-                }
-            }
-            // Aim at the box in half the rays, so that many are met.
-            if rng.below(2) == 0 {
-                d = b.center() - o;
-            }
-            let tmin = if rng.below(2) == 0 {
-                0.0
-            } else {
-                rng.range(0.0, 1.0)
-            };
-            let ray = Ray {
-                origin: o,
-                direction: d,
-                tmin,
-                tmax: f32::INFINITY,
-            };
-            let Some((n, f)) = exact_interval(&ray, &padded(b, 0.0)) else {
-                continue;
-            };
-            met += 1;
-            let reach_padded = padded(b, m * REACH_PAD);
-            for fused in [true, false] {
-                let (cn, cf) = computed(o, d, tmin, &reach_padded, fused);
-                if !(f64::from(cn) <= n && f64::from(cf) >= f) {
+                let (mut cn, mut cf) = ([0.0; 16], [0.0; 16]);
+                l.store(near, &mut cn);
+                l.store(far, &mut cf);
+                if !(f64::from(cn[0]) <= n && f64::from(cf[0]) >= f) {
                     failures.push(format!(
-                        "fused {fused}: ({cn}, {cf}) misses ({n}, {f}): o {o} d {d} {b:?} m {m}"
+                        "{}: ({}, {}) misses ({n}, {f}): {ray:?} {b:?} m {m}",
+                        L::ISA,
+                        cn[0],
+                        cf[0]
                     ));
                 }
             }
+            (met, failures)
         }
-        assert!(
-            failures.is_empty(),
-            "{} failures, first {:#?}",
-            failures.len(),
-            &failures[..failures.len().min(4)]
-        );
-        assert!(met > 50_000, "only {met} boxes met");
+    }
+
+    /// A ray from within a tree's magnitude `M`, its box intervals taken as the walk computes
+    /// them on every ISA (with FMA and without) and not widened, holds the exact interval of
+    /// every box it meets once the box carries `REACH_PAD·M` besides `BOX_PAD`.
+    #[test]
+    fn the_reach_padding_holds_the_rounding_of_rays_from_within_it() {
+        let cases = rays_and_boxes(&mut Rng::new(41), 200_000);
+        for dispatch in Dispatch::available() {
+            let (met, failures) = dispatch.run(WalkIntervals(cases.clone()));
+            assert!(
+                failures.is_empty(),
+                "{} failures, first {:#?}",
+                failures.len(),
+                &failures[..failures.len().min(4)]
+            );
+            assert!(met > 50_000, "only {met} boxes met");
+        }
     }
 }

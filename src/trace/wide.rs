@@ -286,7 +286,8 @@ impl<L: Lanes> Walker<L> {
                     self.tmin,
                     tmax,
                 );
-                // Widened by `(|t| + err)·eps` each. With `tmin >= 0` the entry `n` is at least
+                // As computed within the nodes' reach (their padding holds the rounding), else
+                // widened by `(|t| + err)·eps` each. With `tmin >= 0` the entry `n` is at least
                 // 0, so `n − (n + err)·eps` is one `mul_add`; so is the exit's `f + (f + err)·eps`
                 // where `f >= 0`, and where `f < 0` the box is entered only if `|f|` is within
                 // `2·err·eps` of 0 (as `n >= −err·eps`), which the shift's extra `8·eps` of itself
