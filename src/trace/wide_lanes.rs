@@ -14,13 +14,12 @@
 //! Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture*, IEEE
 //! TVCG 2012, which Embree's hybrid traversal follows.
 //!
-//! Each ray enters a box over an interval that holds the one its own walk computes for it: the
-//! same planes chosen by the signs of its direction, the same fused distances
-//! ([`clip_planes_fused`]), lane by lane, up to its own closest hit so far, always widened as
-//! a walk from outside the tree's reach widens them (a walk from within takes them as computed,
-//! [`super::wide::walk`]). So every leaf its walk would need is entered, and as the closest
-//! hit does not depend on the order of the leaves ([`super::wide`]), each ray finds exactly
-//! the hit its own walk finds.
+//! Each ray enters a box over the interval its own walk computes for it: the same planes chosen
+//! by the signs of its direction, the same fused distances ([`clip_planes_fused`]) and the same
+//! widening (none for a ray from within the tree's reach, [`super::wide::walk`]), lane by lane,
+//! up to its own closest hit so far. So every leaf its walk would need is entered, and as the
+//! closest hit does not depend on the order of the leaves ([`super::wide`]), each ray finds
+//! exactly the hit its own walk finds.
 
 use arrayvec::ArrayVec;
 use kdbeam_kernels::slab::clip_planes_fused;
@@ -38,8 +37,8 @@ const MAX_LANES: usize = 16;
 
 /// The rays of lanes `lanes` of `packet`'s columns `base..base + L::WIDTH` (`single[i]` is ray
 /// `base + i`), each traceable ([`super::single::is_traceable`]), through `tree` together;
-/// `visitors[i]` visits the leaves of lane `i` that ray's own walk visits (and possibly more),
-/// each over an interval holding its own walk's, for every lane `i` of `lanes`. With
+/// `visitors[i]` visits the leaves of lane `i` and sees what that ray's own walk shows it, for
+/// every lane `i` of `lanes`. With
 /// `NEAREST_FIRST` (closest hits) the children a node's rays enter are taken nearest first;
 /// without (any hit) in the node's order, which saves more than a nearer first hit would.
 #[inline(always)]
@@ -56,7 +55,7 @@ pub(crate) fn traverse<L: Lanes, V: LeafVisitor, const NEAREST_FIRST: bool>(
     if nodes.is_empty() || lanes == 0 {
         return;
     }
-    let rays = LaneRays::new(l, packet, base, lanes);
+    let rays = LaneRays::new(l, packet, base, lanes, tree.wide_nodes().reach());
     let tmax = l.load(&packet.tmax[base..]);
     let mut best = [f32::INFINITY; MAX_LANES];
     let mut limit = tmax;
@@ -170,21 +169,30 @@ struct LaneRays<L: Lanes> {
     err: L::F32,
     /// Every ray has `tmin >= 0`: entries are then at least 0, and their widening one `mul_add`.
     nonnegative: bool,
+    /// Lanes with `tmin >= 0` whose origin lies within the tree's reach: their own walks take
+    /// a box's interval as computed ([`super::wide::walk`]).
+    within: L::Mask,
+    /// Every traced lane is `within`.
+    all_within: bool,
     tmin: L::F32,
 }
 
 impl<L: Lanes> LaneRays<L> {
     #[inline(always)]
-    fn new(l: L, p: &RayPacket, base: usize, lanes: u32) -> Self {
+    fn new(l: L, p: &RayPacket, base: usize, lanes: u32, reach: f32) -> Self {
         let (zero, inf) = (l.splat(0.0), l.splat(f32::INFINITY));
         let finite = |x: L::F32| x.abs().lt(inf);
         let mut offset = [zero; 3];
         let mut inv_direction = [zero; 3];
         let mut backwards = [zero.lt(zero); 3];
         let mut err = zero;
+        let tmin = l.load(&p.tmin[base..]);
+        let mut within = tmin.ge(zero);
         for k in 0..3 {
             let inv = l.splat(1.0) / l.load(&p.direction[k][base..]);
-            let product = l.load(&p.origin[k][base..]) * inv;
+            let origin = l.load(&p.origin[k][base..]);
+            within = within & origin.abs().le(l.splat(reach));
+            let product = origin * inv;
             let kept = finite(product) | !finite(inv);
             offset[k] = L::F32::select(kept, -product, l.splat(f32::NAN));
             let size = offset[k].abs();
@@ -192,19 +200,20 @@ impl<L: Lanes> LaneRays<L> {
             inv_direction[k] = inv;
             backwards[k] = inv.lt(zero);
         }
-        let tmin = l.load(&p.tmin[base..]);
         LaneRays {
             offset,
             inv_direction,
             backwards,
             err,
             nonnegative: tmin.ge(zero).bits() & lanes == lanes,
+            within,
+            all_within: within.bits() & lanes == lanes,
             tmin,
         }
     }
 
-    /// Each ray's widened interval in child `k`'s box of `node` over `[tmin, tmax]`, as its
-    /// own walk computes it from outside the tree's reach.
+    /// Each ray's interval in child `k`'s box of `node` over `[tmin, tmax]`, as its own walk
+    /// computes it.
     #[inline(always)]
     fn clip(&self, l: L, node: &WideNode, k: usize, tmax: L::F32) -> (L::F32, L::F32) {
         let (mut enter, mut exit) = ([self.tmin; 3], [self.tmin; 3]);
@@ -221,8 +230,11 @@ impl<L: Lanes> LaneRays<L> {
             self.tmin,
             tmax,
         );
+        if self.all_within {
+            return (n, f);
+        }
         let eps = l.splat(INTERVAL_EPS);
-        if self.nonnegative {
+        let (wn, wf) = if self.nonnegative {
             (
                 n.mul_add(l.splat(1.0 - INTERVAL_EPS), -self.err * eps),
                 f.mul_add(
@@ -235,7 +247,11 @@ impl<L: Lanes> LaneRays<L> {
                 n - (n.abs() + self.err) * eps,
                 f + (f.abs() + self.err) * eps,
             )
-        }
+        };
+        (
+            L::F32::select(self.within, n, wn),
+            L::F32::select(self.within, f, wf),
+        )
     }
 }
 
