@@ -63,8 +63,5 @@ pub fn load_axes<L: Lanes>(l: L, columns: &[[f32; MAX_PACKET_RAYS]; 3], b: usize
 #[must_use]
 pub fn lane_rays<L: Lanes>(l: L, p: &RayPacket, g: usize) -> LaneRays<L> {
     let b = g * L::WIDTH;
-    LaneRays {
-        origin: load_axes(l, &p.origin, b),
-        direction: load_axes(l, &p.direction, b),
-    }
+    LaneRays::new(load_axes(l, &p.origin, b), load_axes(l, &p.direction, b))
 }

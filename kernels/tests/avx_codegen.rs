@@ -28,10 +28,10 @@ impl LaneTask for AvxCodegenProbe {
     fn run<L: Lanes>(self, l: L) -> (Vec<f32>, Vec<f32>) {
         let x = l.splat(self.x);
         let fma = x.mul_add(l.splat(self.y), x);
-        let rays = LaneRays::<L> {
-            origin: [l.splat(0.25), l.splat(0.25), l.splat(2.0)],
-            direction: [l.splat(0.0), l.splat(0.0), l.splat(-1.0)],
-        };
+        let rays = LaneRays::<L>::new(
+            [l.splat(0.25), l.splat(0.25), l.splat(2.0)],
+            [l.splat(0.0), l.splat(0.0), l.splat(-1.0)],
+        );
         let tri = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
         let hits = WatertightLanes::new(l, &rays).intersect(l, &tri, l.splat(0.0), l.splat(9.0));
         let t = L::F32::select(hits.mask, hits.t, l.splat(-1.0));

@@ -202,6 +202,82 @@ fn kensler_shirley_never_hits_exactly_collinear_triangles() {
     }
 }
 
+/// A ray in the plane of `tri`, along the edge from `a` to `b`: it starts one edge length
+/// before `a`, as the grazing rays of the tracer's differential tests do.
+fn along_edge(a: Vec3, b: Vec3) -> Ray {
+    Ray::new(a * 2.0 - b, b - a)
+}
+
+#[test]
+fn kensler_shirley_misses_rays_in_the_triangles_plane() {
+    // Two triangles of an icosphere sharing an edge, and the ray along it on which the
+    // unguarded test "hit" one at the ray's origin (t = 0), an edge length away from it.
+    let shared = (
+        Vec3::new(0.42453447, 0.17975883, -0.8873879),
+        Vec3::new(0.45793355, 0.15911707, -0.8746306),
+    );
+    let pair = [
+        Triangle::new(
+            Vec3::new(0.45426187, 0.19822723, -0.8685345),
+            shared.1,
+            shared.0,
+        ),
+        Triangle::new(
+            Vec3::new(0.4278731, 0.14050053, -0.8928517),
+            shared.0,
+            shared.1,
+        ),
+    ];
+    let ray = along_edge(shared.0, shared.1);
+    for tri in &pair {
+        assert_eq!(
+            kensler_shirley(&ray, tri, 0.0, f32::INFINITY),
+            None,
+            "{tri:?}"
+        );
+    }
+    // Every edge of random well-shaped triangles, both ways.
+    let mut rng = Rng::new(12);
+    let mut in_plane = 0;
+    for _ in 0..5_000 {
+        let tri = well_shaped_triangle(&mut rng);
+        for (a, b) in [(tri.v0, tri.v1), (tri.v1, tri.v2), (tri.v2, tri.v0)] {
+            for ray in [along_edge(a, b), along_edge(b, a)] {
+                in_plane += 1;
+                let hit = kensler_shirley(&ray, &tri, f32::NEG_INFINITY, f32::INFINITY);
+                assert_eq!(hit, None, "{tri:?} {ray:?}");
+            }
+        }
+    }
+    assert_eq!(in_plane, 30_000);
+}
+
+#[test]
+fn kensler_shirley_still_hits_at_grazing_incidence() {
+    // Incidence down to 1e-4 radians: far from the plane guard (about 1e-6 radians on these
+    // triangles), and `t` still comes out near 1. Tolerance: `t`'s error grows as
+    // 1/sin(incidence), 2^-24 times a few dozen roundings of `O(1)` inputs (measured worst:
+    // 1.1e-3 at 1e-4 radians); we allow 1e-6/incidence, ten times that.
+    let mut rng = Rng::new(13);
+    for _ in 0..5_000 {
+        let tri = well_shaped_triangle(&mut rng);
+        let (e0, e1) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
+        let n = e0.cross(e1).normalize();
+        let target = barycentric_point(&tri, 0.3, 0.3);
+        let along = (e0 * rng.range(-1.0, 1.0) + e1 * rng.range(-1.0, 1.0)).normalize();
+        let angle: f32 = [1e-4, 1e-3, 1e-2][rng.below(3)];
+        let d = (along * angle.cos() + n * angle.sin()).normalize();
+        let ray = Ray::new(target - d, d);
+        let hit = kensler_shirley(&ray, &tri, f32::NEG_INFINITY, f32::INFINITY)
+            .unwrap_or_else(|| panic!("incidence {angle}: {tri:?} {ray:?}"));
+        assert!(
+            (hit.t - 1.0).abs() < 1e-6 / angle,
+            "incidence {angle}: t = {}",
+            hit.t
+        );
+    }
+}
+
 /// Rays with a NaN, an infinite or an all-zero component, aimed near the triangle.
 fn non_finite_rays(rng: &mut Rng, target: Vec3) -> Vec<Ray> {
     let origin = target + rng.on_sphere() * 2.0;
@@ -271,6 +347,8 @@ fn lane_cases(rng: &mut Rng) -> (Vec<Triangle>, Vec<Ray>) {
                 rays.push(Ray::new(target - axis, axis));
             }
         }
+        rays.push(along_edge(tri.v0, tri.v1));
+        rays.push(along_edge(tri.v2, tri.v1));
     }
     rays.extend(non_finite_rays(rng, Vec3::new(0.25, 0.25, 0.0)));
     for ray in rays.iter_mut() {

@@ -17,6 +17,17 @@
 //! `u = (w·e1)/(n·d)`. Dotting with `d × e0` likewise gives `v = (w·e0)/(n·d)`. So RT06's `u` is
 //! the weight of `p1` and `v` the weight of `p2`, as [`TriangleHit`] wants: no sign to fix.
 //!
+//! **A ray in the triangle's plane misses it.** There `n · d` is zero but for rounding, and
+//! `t`, `u` and `v` are quotients of rounding noise: a ray along an edge shared by two
+//! triangles can "hit" one at its origin, a whole edge length away from it. Such a hit lies
+//! nowhere near its triangle, which would break every culling stage's argument (the hit point
+//! is in the triangle's box, cell and frustum). So a hit also needs `|n · d|` above the bound
+//! on its rounding error, [`PLANE_EPS`]` · ‖e0‖₁‖e1‖₁‖d‖₁`: with `n` itself rounded from
+//! `e0 × e1` and `e0`, `e1` from the vertices, the computed `n · d` is off by at most about
+//! `7ε · ‖e0‖₁‖e1‖₁‖d‖∞` (`ε = 2⁻²⁴`), so below the bound not even its sign is known. For a
+//! well-shaped triangle that refuses incidence angles below about 10⁻⁶ radians; the bound is
+//! evaluated only when some lane hits.
+//!
 //! Edge cases: a degenerate triangle has `n = 0` (exactly, when two vertices are equal), so
 //! `r = ±inf` and `t = 0·inf = NaN`; a ray parallel to the plane has `r = ±inf` and then `u` or
 //! `v` is `±inf` or NaN. Every accepting comparison is written so that NaN fails it, and
@@ -26,11 +37,29 @@
 //!
 //! [`Scalar`]: crate::lanes::Scalar
 
-use super::{cross3, dot3, splat3, sub3, LaneHits, LaneRays, TriangleHit};
+use super::{cross3, dot3, l1, splat3, sub3, LaneHits, LaneRays, TriangleHit};
 use crate::beam::load_vertex;
-use crate::lanes::{LaneF32, Lanes};
+use crate::lanes::{LaneF32, LaneMask, Lanes};
 use crate::ray::Ray;
 use crate::triangle::{KsTriangle, TriangleBlock};
+
+/// `8ε` (`ε = 2⁻²⁴`, the unit roundoff of `f32`): `|n · d|` at or below `PLANE_EPS ·
+/// ‖e0‖₁‖e1‖₁‖d‖₁` is rounding noise, and the ray is taken to lie in the triangle's plane.
+pub const PLANE_EPS: f32 = 1.0 / 2_097_152.0;
+
+/// The triangle's part of the bound on `n · d`'s rounding error: `‖e0‖₁‖e1‖₁ ·`
+/// [`PLANE_EPS`].
+#[inline(always)]
+fn plane_scale<F: LaneF32>(e0: [F; 3], e1: [F; 3], eps: F) -> F {
+    l1(e0) * l1(e1) * eps
+}
+
+/// Is `den = n · d` clear of its rounding error (`scale` from [`plane_scale`], `l1d = ‖d‖₁`),
+/// i.e. is the ray off the triangle's plane? False for NaN or infinite operands.
+#[inline(always)]
+fn off_plane<F: LaneF32>(den: F, scale: F, l1d: F) -> F::Mask {
+    den.abs().gt(scale * l1d)
+}
 
 /// Kensler–Shirley test of one ray against one triangle.
 ///
@@ -44,15 +73,18 @@ pub fn intersect(ray: &Ray, tri: &KsTriangle, tmin: f32, tmax: f32) -> Option<Tr
     let d = ray.direction.to_array();
     let n = tri.n.to_array();
     let c = sub3(tri.p0.to_array(), ray.origin.to_array());
-    let r = 1.0 / dot3(n, d);
+    let den = dot3(n, d);
+    let r = 1.0 / den;
     let t = dot3(n, c) * r;
     if !(t >= tmin && t <= tmax) {
         return None;
     }
+    let (e0, e1) = (tri.e0.to_array(), tri.e1.to_array());
     let w = cross3(c, d);
-    let u = dot3(w, tri.e1.to_array()) * r;
-    let v = dot3(w, tri.e0.to_array()) * r;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some(TriangleHit { t, u, v })
+    let u = dot3(w, e1) * r;
+    let v = dot3(w, e0) * r;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && off_plane(den, plane_scale(e0, e1, PLANE_EPS), l1(d)))
+        .then_some(TriangleHit { t, u, v })
 }
 
 /// Kensler–Shirley test of `WIDTH` rays against one triangle, with per-lane `[tmin, tmax]`.
@@ -67,15 +99,20 @@ pub fn intersect_lanes<L: Lanes>(
     tmin: L::F32,
     tmax: L::F32,
 ) -> LaneHits<L> {
-    let n = splat3(l, tri.n);
+    let (n, e0, e1) = (splat3(l, tri.n), splat3(l, tri.e0), splat3(l, tri.e1));
     let c = sub3(splat3(l, tri.p0), rays.origin);
-    let r = l.splat(1.0) / dot3(n, rays.direction);
+    let den = dot3(n, rays.direction);
+    let r = l.splat(1.0) / den;
     let t = dot3(n, c) * r;
     let w = cross3(c, rays.direction);
-    let u = dot3(w, splat3(l, tri.e1)) * r;
-    let v = dot3(w, splat3(l, tri.e0)) * r;
+    let u = dot3(w, e1) * r;
+    let v = dot3(w, e0) * r;
     let zero = l.splat(0.0);
-    let mask = t.ge(tmin) & t.le(tmax) & u.ge(zero) & v.ge(zero) & (u + v).le(l.splat(1.0));
+    let mut mask = t.ge(tmin) & t.le(tmax) & u.ge(zero) & v.ge(zero) & (u + v).le(l.splat(1.0));
+    if mask.any() {
+        let scale = plane_scale(tri.e0.to_array(), tri.e1.to_array(), PLANE_EPS);
+        mask = mask & off_plane(den, l.splat(scale), rays.direction_l1);
+    }
     LaneHits { mask, t, u, v }
 }
 
@@ -117,16 +154,21 @@ pub fn intersect_block<L: Lanes>(
     );
     let d = splat3(l, ray.direction);
     let c = sub3(p0, splat3(l, ray.origin));
-    let r = l.splat(1.0) / dot3(n, d);
+    let den = dot3(n, d);
+    let r = l.splat(1.0) / den;
     let t = dot3(n, c) * r;
     let w = cross3(c, d);
     let u = dot3(w, e1) * r;
     let v = dot3(w, e0) * r;
     let zero = l.splat(0.0);
-    let mask = t.ge(l.splat(tmin))
+    let mut mask = t.ge(l.splat(tmin))
         & t.le(l.splat(tmax))
         & u.ge(zero)
         & v.ge(zero)
         & (u + v).le(l.splat(1.0));
+    if mask.any() {
+        let scale = plane_scale(e0, e1, l.splat(PLANE_EPS));
+        mask = mask & off_plane(den, scale, l.splat(l1(ray.direction.to_array())));
+    }
     LaneHits { mask, t, u, v }
 }

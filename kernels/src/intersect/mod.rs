@@ -44,9 +44,22 @@ pub struct LaneRays<L: Lanes> {
     pub origin: [L::F32; 3],
     /// Directions (any length), per axis.
     pub direction: [L::F32; 3],
+    /// `‖direction‖₁ = |d.x| + |d.y| + |d.z|`, summed left to right: the rays' part of
+    /// Kensler–Shirley's bound on the rounding of `n · d`.
+    pub direction_l1: L::F32,
 }
 
 impl<L: Lanes> LaneRays<L> {
+    /// The rays with these origins and directions.
+    #[inline(always)]
+    pub fn new(origin: [L::F32; 3], direction: [L::F32; 3]) -> Self {
+        LaneRays {
+            origin,
+            direction,
+            direction_l1: l1(direction),
+        }
+    }
+
     /// The origin of lane `i`. Panics if `i >= L::WIDTH`.
     #[inline(always)]
     pub fn origin(&self, i: usize) -> Vec3 {
@@ -74,6 +87,12 @@ pub struct LaneHits<L: Lanes> {
     pub u: L::F32,
     /// Barycentric weights of `v2`.
     pub v: L::F32,
+}
+
+/// `‖a‖₁ = |a0| + |a1| + |a2|`, summed left to right.
+#[inline(always)]
+pub(crate) fn l1<F: LaneF32>(a: [F; 3]) -> F {
+    a[0].abs() + a[1].abs() + a[2].abs()
 }
 
 /// `a · b`, summed as `(a0·b0 + a1·b1) + a2·b2`, never fused.

@@ -131,18 +131,18 @@ pub fn gather<L: Lanes>(l: L, rays: &[Ray]) -> LaneRays<L> {
         let v: Vec<f32> = rays.iter().map(f).collect();
         l.load(&v)
     };
-    LaneRays {
-        origin: [
+    LaneRays::new(
+        [
             lanes(&|r| r.origin.x),
             lanes(&|r| r.origin.y),
             lanes(&|r| r.origin.z),
         ],
-        direction: [
+        [
             lanes(&|r| r.direction.x),
             lanes(&|r| r.direction.y),
             lanes(&|r| r.direction.z),
         ],
-    }
+    )
 }
 
 /// The lanes of `v` as a vector.
