@@ -1,7 +1,7 @@
 //! The any-hit visitor: a ray leaves the traversal at its first hit (shadow rays).
 
 use kdbeam_kernels::groups::{group_bits, lane_rays, take_group};
-use kdbeam_kernels::{LaneMask, Lanes, RayPacket};
+use kdbeam_kernels::{LaneF32, LaneMask, Lanes, RayPacket};
 
 use super::lane_test::LaneTest;
 use super::visit::{leaf_beam, LeafVisit, PacketVisitor, SurvivorBlocks};
@@ -65,7 +65,12 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
                 let b = g * L::WIDTH;
                 let rays = lane_rays(l, p, g);
                 let prepared = T::prepare(l, &rays);
-                let (tmin, tmax) = (l.load(&p.tmin[b..]), l.load(&p.tmax[b..]));
+                // A lane that is closed (not in the visit, or already occluded) gets a NaN
+                // interval, which no test accepts: its hits would cost the kernel's checks on
+                // hits for nothing.
+                let tmin = l.load(&p.tmin[b..]);
+                let closed = l.splat(f32::NAN);
+                let mut tmax = L::F32::select(l.mask_from_bits(bits), l.load(&p.tmax[b..]), closed);
                 let mut rest = s.mask;
                 while rest != 0 && bits != 0 {
                     let j = rest.trailing_zeros() as usize;
@@ -74,7 +79,8 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
                     let inside = s.inside >> j & 1 != 0;
                     let tris = &visit.triangles;
                     let h = T::test(l, &prepared, &rays, tris, first + j, (tmin, tmax), inside);
-                    bits &= !(h.mask & l.mask_from_bits(bits)).bits();
+                    bits &= !h.mask.bits();
+                    tmax = L::F32::select(h.mask, closed, tmax);
                 }
                 open &= !(u64::from(before & !bits) << b);
             }
