@@ -45,7 +45,9 @@ pub struct LaneRays<L: Lanes> {
     /// Directions (any length), per axis.
     pub direction: [L::F32; 3],
     /// `‖direction‖₁ = |d.x| + |d.y| + |d.z|`, summed left to right: the rays' part of
-    /// Kensler–Shirley's bound on the rounding of `n · d`.
+    /// Kensler–Shirley's bound on the rounding of `n · d`. [`LaneRays::new`] computes it; a
+    /// value that is not `direction`'s would make the lane form disagree with the single-ray
+    /// form on rays near a triangle's plane.
     pub direction_l1: L::F32,
 }
 
