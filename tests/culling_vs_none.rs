@@ -15,9 +15,11 @@ mod common;
 mod fuzz_checks;
 
 use fuzz_checks::wins_by_an_extra_test;
+use kdbeam::kernels::intersect::kensler_shirley;
+use kdbeam::kernels::KsTriangle;
 use kdbeam::scene::procedural;
 use kdbeam::scene::rng::Rng;
-use kdbeam::trace::{Culling, PacketCounters, RayBoxes};
+use kdbeam::trace::{Culling, Frustum, PacketCounters, Planes, RayBoxes};
 use kdbeam::Camera;
 use kdbeam::{
     BuildParams, Hit, HitPacket, Intersector, Isa, KdTree, Mesh, PacketShape, Ray, RayPacket,
@@ -244,4 +246,69 @@ fn culling_never_changes_a_hit_long() {
         }
     }
     eprintln!("{visits} ray-leaf visits compared");
+}
+
+/// Any-hit packets that traverse the tree as a whole and outrun its node budget after testing
+/// leaves hand their unfinished rays to the per-ray traversal: every ray occluded on the scalar
+/// path is occluded, and a ray occluded only here hits some triangle of the scene within its
+/// segment. Rays from all over a triangle soup, in one octant, spread the packet's interval
+/// over the whole tree, so most packets run out of nodes after their first leaves.
+///
+/// Tolerance: none on the scalar path's verdicts; an extra occluded ray is checked against
+/// every triangle with the same intersector.
+#[test]
+fn any_hit_packets_over_the_node_budget_keep_the_scalar_verdicts() {
+    let mesh = procedural::builtin("soup:30000").unwrap();
+    let tree = KdTree::build(&mesh, &BuildParams::default()).unwrap();
+    let b = mesh.bounds();
+    let mut rng = Rng::new(11);
+    let packets: Vec<Vec<Ray>> = (0..48)
+        .map(|_| {
+            (0..64)
+                .map(|_| {
+                    let o = b.min
+                        + b.extent()
+                            * Vec3::new(
+                                rng.range(0.0, 1.0),
+                                rng.range(0.0, 1.0),
+                                rng.range(0.0, 1.0),
+                            );
+                    let d = rng.unit_vector().abs() + Vec3::splat(0.05);
+                    let mut r = Ray::new(o, d);
+                    r.tmax = b.extent().length() * rng.range(0.1, 1.0);
+                    r
+                })
+                .collect()
+        })
+        .collect();
+    let scalar = Tracer::new(&tree).with_isa(Isa::Scalar).unwrap();
+    let hits_some_triangle = |r: &Ray| {
+        (0..mesh.triangle_count()).any(|i| {
+            let tri = KsTriangle::from(&mesh.triangle(i));
+            kensler_shirley::intersect(r, &tri, r.tmin, r.tmax).is_some()
+        })
+    };
+    let culling = Culling::planes(Planes::Six, false).with_frustum(Frustum::Packet);
+    for isa in Isa::available() {
+        let tracer = scalar.with_isa(isa).unwrap().with_culling(culling);
+        let mut handed_on = 0;
+        for rays in &packets {
+            let p = RayPacket::from_rays(rays);
+            let mut counters = PacketCounters::default();
+            let occ = tracer.occluded_packet_counted(&p, p.full_mask(), &mut counters);
+            // One octant: a second packet is the per-ray traversal taking over.
+            handed_on += u32::from(counters.packets > 1 && counters.leaf_visits > 0);
+            for (j, r) in rays.iter().enumerate() {
+                let (want, got) = (scalar.occluded(r), occ >> j & 1 != 0);
+                assert!(
+                    got == want || (got && hits_some_triangle(r)),
+                    "{isa}: ray {r:?}: occluded {got}, scalar {want}"
+                );
+            }
+        }
+        assert!(
+            handed_on > 0,
+            "{isa}: no packet ran out of nodes: the test proves nothing"
+        );
+    }
 }

@@ -56,10 +56,10 @@ pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 /// triangle of a leaf the ray's own traversal does not enter).
 ///
 /// An incoherent packet's interval covers far more cells than its rays cross. After
-/// [`INTERVAL_NODE_BUDGET`] inner nodes (a third as many wide nodes, before any leaf test) the
-/// traversal stops and returns the rays still unfinished, for [`traverse_octant`] to trace
-/// again (hits found so far stay: they are real, and the per-ray traversal only improves on
-/// them); `0` when it finished.
+/// [`INTERVAL_NODE_BUDGET`] inner nodes (a third as many wide nodes; for closest hits only
+/// before any leaf test, for any-hit rays at any point) the traversal stops and returns the
+/// rays still unfinished, for [`traverse_octant`] to trace again (hits found so far stay: they
+/// are real, and the per-ray traversal only improves on them); `0` when it finished.
 #[inline(always)]
 pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
@@ -225,10 +225,12 @@ fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
     let shared_rays = Cell::new(None);
     loop {
         if child.is_node() {
-            // Only while no ray has been tested: the per-ray traversal then starts afresh.
-            // Hits found here in another order than its front-to-back one would make it skip
-            // cells entered at their `t`, and a tie the cell held.
-            if budget == 0 && !tested {
+            // For closest hits, only while no ray has been tested: the per-ray traversal then
+            // starts afresh. Hits found here in another order than its front-to-back one would
+            // make it skip cells entered at their `t`, and a tie the cell held. Any-hit rays
+            // still unfinished have found nothing, so their per-ray traversal starts afresh
+            // whenever it starts.
+            if budget == 0 && (!tested || V::FARTHEST_FIRST) {
                 return live_mask & !done;
             }
             budget = budget.saturating_sub(1);
