@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use kdbeam::rays::secondary::{TilePackets, DEFAULT_AO_RAYS};
 use kdbeam::rays::stream::{intersect_sorted, occluded_sorted};
-use kdbeam::trace::{Culling, Intersector, RayBoxes};
+use kdbeam::trace::{Culling, Intersector, PacketCounters, RayBoxes};
 use kdbeam::{Aabb, BuildParams, Hit, HitPacket, Isa, Mesh, Ray, RayPacket, Tracer};
 use kdbeam_cli::render::{RaySet, Rays};
 use kdbeam_cli::{Error, Result};
@@ -534,12 +534,12 @@ impl PacketRays {
     }
 
     /// Traces each packet, formed in a thread's reused [`RayPacket`] (its hits in a thread's
-    /// reused [`HitPacket`]): `trace(packet, hits, out)` for packet `k` and `outs[k]`; the sum
-    /// of what it returns.
+    /// reused [`HitPacket`], its work added to a thread's [`PacketCounters`]):
+    /// `trace(packet, hits, counters, out)` for packet `k` and `outs[k]`; the tests performed.
     fn trace_each<T: Send>(
         &self,
         outs: &mut [T],
-        trace: impl Fn(&RayPacket, &mut HitPacket, &mut T) -> u64 + Sync,
+        trace: impl Fn(&RayPacket, &mut HitPacket, &mut PacketCounters, &mut T) + Sync,
     ) -> u64 {
         outs.par_iter_mut()
             .enumerate()
@@ -548,15 +548,18 @@ impl PacketRays {
                     (
                         Box::new(RayPacket::from_rays(&[])),
                         Box::<HitPacket>::default(),
+                        Box::<PacketCounters>::default(),
                     )
                 },
-                |(packet, hits), (k, out)| {
+                |(packet, hits, counters), (k, out)| {
                     let rays = self.packet(k);
                     packet.set_len(rays.len());
                     for (i, r) in rays.iter().enumerate() {
                         packet.set(i, r);
                     }
-                    trace(packet, hits, out)
+                    let before = counters.tests;
+                    trace(packet, hits, counters, out);
+                    counters.tests - before
                 },
             )
             .sum()
@@ -622,6 +625,7 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
         }),
         // Each camera packet's answer stays in its own output, as Embree's packet calls leave
         // theirs in their ray structures: neither side's timing converts them.
+        // A thread's counters are reused from packet to packet, as a renderer's would be.
         KdbeamRays::Packets(packets) if any => {
             let mut outs = vec![0u64; packets.len()];
             warm_then_median(reps, || {
@@ -629,10 +633,10 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
                 let tests = packets
                     .par_iter()
                     .zip(outs.par_iter_mut())
-                    .map(|(p, bits)| {
-                        let mut c = kdbeam::trace::PacketCounters::default();
-                        *bits = tracer.occluded_packet_counted(p, p.full_mask(), &mut c);
-                        c.tests
+                    .map_init(Box::<PacketCounters>::default, |c, (p, bits)| {
+                        let before = c.tests;
+                        *bits = tracer.occluded_packet_counted(p, p.full_mask(), c);
+                        c.tests - before
                     })
                     .sum();
                 (start.elapsed().as_secs_f64(), (tests, 0))
@@ -645,7 +649,11 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
                 let tests = packets
                     .par_iter()
                     .zip(outs.par_iter_mut())
-                    .map(|(p, out)| tracer.intersect_packet(p, p.full_mask(), out).tests)
+                    .map_init(Box::<PacketCounters>::default, |c, (p, out)| {
+                        let before = c.tests;
+                        tracer.intersect_packet_counted(p, p.full_mask(), out, c);
+                        c.tests - before
+                    })
                     .sum();
                 (start.elapsed().as_secs_f64(), (tests, 0))
             })
@@ -657,10 +665,8 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
             let mut outs = vec![0u64; packets.ends.len()];
             warm_then_median(reps, || {
                 let start = Instant::now();
-                let tests = packets.trace_each(&mut outs, |p, _, bits| {
-                    let mut c = kdbeam::trace::PacketCounters::default();
-                    *bits = tracer.occluded_packet_counted(p, p.full_mask(), &mut c);
-                    c.tests
+                let tests = packets.trace_each(&mut outs, |p, _, c, bits| {
+                    *bits = tracer.occluded_packet_counted(p, p.full_mask(), c);
                 });
                 (start.elapsed().as_secs_f64(), (tests, 0))
             })
@@ -669,12 +675,11 @@ pub(crate) fn measure(reps: usize, tracer: &Tracer<'_>, rays: &KdbeamRays, any: 
             let mut outs = packets.split(&mut hits);
             warm_then_median(reps, || {
                 let start = Instant::now();
-                let tests = packets.trace_each(&mut outs, |p, scratch, out| {
-                    let tests = tracer.intersect_packet(p, p.full_mask(), scratch).tests;
+                let tests = packets.trace_each(&mut outs, |p, scratch, c, out| {
+                    tracer.intersect_packet_counted(p, p.full_mask(), scratch, c);
                     for (i, h) in out.iter_mut().enumerate() {
                         *h = scratch.hit(i);
                     }
-                    tests
                 });
                 (start.elapsed().as_secs_f64(), (tests, 0))
             })
