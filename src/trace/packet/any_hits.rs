@@ -20,6 +20,7 @@ pub(crate) struct AnyHits<T> {
 
 impl<T> AnyHits<T> {
     /// No ray of `p` occluded yet; every ray tested up to its `tmax`.
+    #[inline(always)]
     pub(crate) fn new(p: &RayPacket, culling: Culling) -> Self {
         AnyHits {
             tmax: p.tmax,

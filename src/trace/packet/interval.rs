@@ -13,7 +13,7 @@ use kdbeam_kernels::{slab, Aabb, LaneF32, LaneMask, Lanes, RayPacket};
 #[cfg(doc)]
 use super::per_ray::traverse_octant;
 use super::visit::{visit_leaf, LeafVisit, PacketVisitor};
-use super::{Column, Traversal, N};
+use super::{Column, Traversal};
 #[cfg(doc)]
 use crate::kdtree::WideNode;
 use crate::kdtree::{LeafRecord, WideChild, WIDE, WIDE_STACK};
@@ -60,13 +60,15 @@ pub(crate) const INTERVAL_NODE_BUDGET: u32 = 192;
 /// before any leaf test, for any-hit rays at any point) the traversal stops and returns the
 /// rays still unfinished, for [`traverse_octant`] to trace again (hits found so far stay: they
 /// are real, and the per-ray traversal only improves on them); `0` when it finished.
+/// `reciprocals` is scratch for the rays' reciprocal directions.
 #[inline(always)]
 pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
     mask: u64,
     octant: usize,
+    reciprocals: &mut [Column; 3],
 ) -> u64 {
-    let rays = IntervalRays::new(t.l, t.packet, mask, &root_bounds(t.tree));
+    let rays = IntervalRays::new(t.l, t.packet, mask, &root_bounds(t.tree), reciprocals);
     if rays.live == 0 {
         return 0;
     }
@@ -80,20 +82,27 @@ pub(crate) fn traverse_octant_interval<L: Lanes, V: PacketVisitor<L>>(
 /// What the whole-packet traversal knows of its rays: the ranges of origin and reciprocal
 /// direction over the rays inside the root box, the largest `|o·inv|` per axis, the packet's
 /// interval `[t_enter, t_exit]`, which rays are inside, and every ray's reciprocal.
-struct IntervalRays {
+struct IntervalRays<'a> {
     o: [[f32; 2]; 3],
     inv: [[f32; 2]; 3],
     err: [f32; 3],
     t_enter: f32,
     t_exit: f32,
     live: u64,
-    inv_columns: [Column; 3],
+    inv_columns: &'a [Column; 3],
 }
 
-impl IntervalRays {
-    /// The summary of the rays of `mask` of `p` (traceable, one octant) clipped to `bounds`.
+impl<'a> IntervalRays<'a> {
+    /// The summary of the rays of `mask` of `p` (traceable, one octant) clipped to `bounds`;
+    /// their reciprocal directions are written to `inv_columns` (the lanes of `mask` only).
     #[inline(always)]
-    fn new<L: Lanes>(l: L, p: &RayPacket, mask: u64, bounds: &Aabb) -> Self {
+    fn new<L: Lanes>(
+        l: L,
+        p: &RayPacket,
+        mask: u64,
+        bounds: &Aabb,
+        inv_columns: &'a mut [Column; 3],
+    ) -> Self {
         let (inf, ninf, max) = (
             l.splat(f32::INFINITY),
             l.splat(f32::NEG_INFINITY),
@@ -105,7 +114,6 @@ impl IntervalRays {
         let mut err = [l.splat(0.0); 3];
         let (mut enter_lo, mut exit_hi) = (inf, ninf);
         let mut live_mask = 0u64;
-        let mut inv_columns = [[0f32; N]; 3];
         let mut rest = mask;
         while rest != 0 {
             let g = take_group::<L>(&mut rest);
@@ -187,7 +195,7 @@ impl IntervalRays {
 #[inline(always)]
 fn traverse_wide<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
-    rays: &IntervalRays,
+    rays: &IntervalRays<'_>,
     octant: usize,
 ) -> u64 {
     let (l, tree) = (t.l, t.tree);
@@ -309,7 +317,7 @@ fn slack(lo: f32, hi: f32, err: f32) -> f32 {
 #[inline(always)]
 fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
-    rays: &IntervalRays,
+    rays: &IntervalRays<'_>,
     octant: usize,
 ) -> u64 {
     let (l, tree) = (t.l, t.tree);
@@ -390,7 +398,7 @@ fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
 #[inline(always)]
 fn test_leaf<L: Lanes, V: PacketVisitor<L>>(
     t: &mut Traversal<'_, L, V>,
-    rays: &IntervalRays,
+    rays: &IntervalRays<'_>,
     leaf: &LeafRecord,
     mask: u64,
     scene_bound: f32,
@@ -401,7 +409,7 @@ fn test_leaf<L: Lanes, V: PacketVisitor<L>>(
     }
     let (l, p) = (t.l, t.packet);
     let best = t.visitor.best_t();
-    let active = rays_in_box(l, p, &rays.inv_columns, mask, best, &leaf.bounds);
+    let active = rays_in_box(l, p, rays.inv_columns, mask, best, &leaf.bounds);
     if active == 0 {
         return None;
     }

@@ -110,7 +110,7 @@ fn traverse_packet<L: Lanes, V: PacketVisitor<L>, const INTERVAL: bool>(
             continue;
         }
         let per_ray = if INTERVAL {
-            traverse_octant_interval(&mut t, mask, octant)
+            traverse_octant_interval(&mut t, mask, octant, &mut q.stack.reciprocals)
         } else {
             mask
         };

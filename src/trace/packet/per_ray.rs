@@ -73,6 +73,7 @@ pub(crate) fn traverse_octant<L: Lanes, V: PacketVisitor<L>>(
     let Stack {
         enter: stack_enter,
         exit: stack_exit,
+        ..
     } = stack;
     let mut top = 0;
     let mut node_index = 0u32;

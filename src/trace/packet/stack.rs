@@ -1,19 +1,24 @@
-//! The per-thread stack of per-ray intervals of the per-ray traversal.
+//! The per-thread scratch of packet traversals: the per-ray traversal's stack of per-ray
+//! intervals, and the rays' reciprocal directions for the whole-packet traversal.
 
 use super::{Column, N};
 use crate::trace::single::STACK_DEPTH;
 
-/// The per-ray intervals of a traversal stack: 32 KiB, kept per thread rather than zeroed on
-/// the machine stack for every packet.
+/// A packet traversal's scratch, 33 KiB, kept per thread rather than zeroed on the machine
+/// stack for every packet (a camera packet that misses everything would spend more on that
+/// than on its traversal).
 pub(crate) struct Stack {
     pub(super) enter: [Column; STACK_DEPTH],
     pub(super) exit: [Column; STACK_DEPTH],
+    /// The reciprocal directions of the whole-packet traversal's rays, by axis.
+    pub(super) reciprocals: [Column; 3],
 }
 
 thread_local! {
     static STACK: std::cell::RefCell<Box<Stack>> = std::cell::RefCell::new(Box::new(Stack {
         enter: [[0.0; N]; STACK_DEPTH],
         exit: [[0.0; N]; STACK_DEPTH],
+        reciprocals: [[0.0; N]; 3],
     }));
 }
 
