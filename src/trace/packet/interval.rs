@@ -335,7 +335,7 @@ fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
     let mut top = 0;
     let mut node_index = 0u32;
     let mut done = 0u64;
-    let mut budget = INTERVAL_NODE_BUDGET;
+    let (mut budget, mut tested) = (INTERVAL_NODE_BUDGET, false);
     // The latest best hit of an unfinished ray: a cell entered after it is skipped. It only
     // changes in a leaf the rays were tested in.
     let mut latest = latest_best(l, live_mask, t.visitor.best_t());
@@ -344,10 +344,11 @@ fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
     loop {
         let node = nodes[node_index as usize];
         if !node.is_leaf() {
-            if budget == 0 {
+            // When, and why: as in `traverse_wide`.
+            if budget == 0 && (!tested || V::FARTHEST_FIRST) {
                 return live_mask & !done;
             }
-            budget -= 1;
+            budget = budget.saturating_sub(1);
             t.counters.inner_visits += 1;
             let a = node.axis();
             let (lo, hi) = split_range(node.split(), [o_lo[a], o_hi[a]], [inv_lo[a], inv_hi[a]]);
@@ -375,6 +376,7 @@ fn traverse_binary<L: Lanes, V: PacketVisitor<L>>(
             if let Some(now_done) = test_leaf(t, rays, leaf, rest, scene_bound, &shared_rays) {
                 done |= now_done;
                 latest = latest_best(l, live_mask & !done, t.visitor.best_t());
+                tested = true;
             }
         }
         // Pop the next cell that some ray still needs: one entered before its best hit.
