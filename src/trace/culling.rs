@@ -63,10 +63,16 @@ pub enum Frustum {
     /// [`Tracer::occluded_packet`]: crate::Tracer::occluded_packet
     Packet,
     /// Chosen per packet from how far apart its rays start and point (four of them compared):
-    /// - ray by ray, as below, where neighbouring rays reach the scene more than 0.55% of its
-    ///   largest extent apart (origins apart, or directions apart times the distance to the
-    ///   scene's centre): a mesh seen a few dozen pixels wide, such as an instance far from the
-    ///   camera, or a small image, where each ray of a tile has leaves of its own;
+    /// - ray by ray, as below, or as a packet (the per-ray packet traversal, with the beams of
+    ///   the two cases after the next), whichever this thread has measured the faster on the
+    ///   tree for the kind of query (TSC cycles per ray, the other way retried every 16
+    ///   packets; ray by ray where there is no cycle counter), where neighbouring rays reach
+    ///   the scene more than 0.55% of its largest extent apart (origins apart, or directions
+    ///   apart times the distance to the scene's centre): a mesh seen a few dozen pixels
+    ///   wide, such as an instance far from the camera, or a small image, where each ray of a
+    ///   tile has leaves of its own; or the shadow rays of a room seen from inside, which
+    ///   land apart but end in the first leaf they reach, where the packet's shared descent
+    ///   pays. Either way finds the same hits;
     /// - [`Frustum::Packet`] for coherent rays: unit directions within 0.02 of each other on
     ///   every axis, and origins within 1/1024 of the scene's extent (a camera's tiles at 512²
     ///   and above) or a footprint within 2% of it (rays that start apart but run side by
@@ -81,8 +87,9 @@ pub enum Frustum {
     ///   segments loosely;
     /// - no beam for at most 16 such rays, whose beam costs more than it culls: the per-ray
     ///   packet traversal, the setting's other stages (ray-box culling) kept;
-    /// - ray by ray for the rest (ambient-occlusion and diffuse rays), whose directions differ
-    ///   too much for a beam and for a shared traversal: each ray finds the hit
+    /// - measured as in the first case, without beams, for the rest (ambient-occlusion and
+    ///   diffuse rays), whose directions differ too much for a beam: ray by ray, each finds
+    ///   the hit
     ///   [`Tracer::intersect`](crate::Tracer::intersect) finds, with the setting's single-ray
     ///   stages, through the tree's wide nodes on SIMD lanes. Without a single-ray stage,
     ///   rays whose origins lie within a sixteenth of the scene's extent of each other (a
@@ -102,6 +109,15 @@ pub(crate) enum PacketTrace {
     RayByRay {
         /// Do the rays start close enough together to share their walk's nodes?
         together: bool,
+    },
+    /// Ray by ray as [`PacketTrace::RayByRay`] with `together`, or through the packet
+    /// traversal culled as `packet` says, whichever this thread has measured the faster for the
+    /// tree and the kind of query ([`super::measured_choice`]).
+    Measured {
+        /// Do the rays start close enough together to share their walk's nodes?
+        together: bool,
+        /// The culling of the packet traversal (an exact one: never the whole-packet walk).
+        packet: Culling,
     },
 }
 
@@ -363,8 +379,22 @@ impl Culling {
         }
         let s = spread(packet, active, bounds);
         let together = s.origin <= MAX_SHARED_WALK_ORIGIN_SPREAD;
-        if s.is_sparse((active & packet.full_mask()).count_ones()) {
-            PacketTrace::RayByRay { together }
+        let rays = (active & packet.full_mask()).count_ones();
+        // Beams where the rays point closely enough together to share them and are many
+        // enough to pay for them.
+        let per_ray = if s.direction <= MAX_BEAM_DIRECTION_SPREAD && rays >= MIN_BEAM_RAYS {
+            self.with_frustum(Frustum::Adaptive)
+        } else {
+            Culling {
+                planes: Planes::None,
+                ..self
+            }
+        };
+        if s.is_sparse(rays) || s.direction > MAX_BEAM_DIRECTION_SPREAD {
+            PacketTrace::Measured {
+                together,
+                packet: per_ray,
+            }
         } else if s.is_coherent() {
             PacketTrace::Packet(Culling {
                 frustum: Frustum::Packet,
@@ -372,15 +402,8 @@ impl Culling {
                 min_rays: 1,
                 ..self
             })
-        } else if s.direction > MAX_BEAM_DIRECTION_SPREAD {
-            PacketTrace::RayByRay { together }
-        } else if (active & packet.full_mask()).count_ones() >= MIN_BEAM_RAYS {
-            PacketTrace::Packet(self.with_frustum(Frustum::Adaptive))
         } else {
-            PacketTrace::Packet(Culling {
-                planes: Planes::None,
-                ..self
-            })
+            PacketTrace::Packet(per_ray)
         }
     }
 
@@ -676,16 +699,29 @@ mod tests {
         let trace = |p: &RayPacket| Culling::AUTO.for_packet(p, p.full_mask(), &unit);
         let resolve = |p: &RayPacket| match trace(p) {
             PacketTrace::Packet(c) => c,
-            PacketTrace::RayByRay { .. } => panic!("{p:?} traced ray by ray"),
+            other => panic!("{p:?}: {other:?}"),
+        };
+        // Contested: ray by ray or the per-ray packet traversal, as measured.
+        let measured = |together: bool, packet: Culling| PacketTrace::Measured { together, packet };
+        let unbeamed = Culling {
+            planes: Planes::None,
+            ..Culling::AUTO
         };
         // A camera's tile: one origin, directions within 0.02.
         let tile = packet(64, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
         assert_eq!(resolve(&tile).frustum, Frustum::Packet);
-        // The same tile on a scene 100 times farther away: its rays land apart, one by one.
+        // The same tile on a scene 100 times farther away: its rays land apart, contested,
+        // with beams if traced as a packet.
         let far = Aabb::new(Vec3::new(-0.5, -0.5, 99.5), Vec3::new(0.5, 0.5, 100.5));
         assert_eq!(
             Culling::AUTO.for_packet(&tile, tile.full_mask(), &far),
-            PacketTrace::RayByRay { together: true }
+            measured(true, Culling::AUTO.with_frustum(Frustum::Adaptive))
+        );
+        // Sixteen of them: without beams.
+        let small = packet(16, &|f| Ray::new(Vec3::ZERO, Vec3::new(f * 0.01, 0.0, 1.0)));
+        assert_eq!(
+            Culling::AUTO.for_packet(&small, small.full_mask(), &far),
+            measured(true, unbeamed)
         );
         // A tile's shadow rays: origins 1% of the scene apart, converging on the light.
         let shadow_to = |light: Vec3| {
@@ -710,22 +746,19 @@ mod tests {
         let resolved = resolve(&packet(16, &fanned));
         assert!(!resolved.is_enabled(), "{resolved:?}");
         assert_eq!(resolved.raybox, RayBoxes::Auto);
-        // Rays over a hemisphere: ray by ray, however many.
+        // Rays over a hemisphere: contested without beams, however many.
         let hemisphere = |f: f32| Ray::new(Vec3::ZERO, Vec3::new(f - 0.5, 0.3, 1.0 - f));
         for p in [packet(16, &hemisphere), packet(64, &hemisphere)] {
-            assert_eq!(trace(&p), PacketTrace::RayByRay { together: true });
+            assert_eq!(trace(&p), measured(true, unbeamed));
         }
-        // Rays that start all over the scene: ray by ray, each walking alone.
+        // Rays that start all over the scene: contested, each walking alone ray by ray.
         let scattered = |f: f32| {
             Ray::new(
                 Vec3::new(f - 0.5, 0.0, 0.0),
                 Vec3::new(f - 0.5, 0.3, 1.0 - f),
             )
         };
-        assert_eq!(
-            trace(&packet(64, &scattered)),
-            PacketTrace::RayByRay { together: false }
-        );
+        assert_eq!(trace(&packet(64, &scattered)), measured(false, unbeamed));
         // A setting that is not `Coherent` is traced as it is.
         let fixed = Culling::FULL;
         assert_eq!(

@@ -6,6 +6,7 @@
 mod culling;
 pub mod filtered;
 pub mod leaf;
+mod measured_choice;
 mod packet;
 mod raybox;
 pub mod reference;
@@ -321,9 +322,25 @@ impl<'t> Tracer<'t> {
         hits: &mut HitPacket,
         counters: &mut PacketCounters,
     ) {
-        let culling = match self.packet_trace(packet, active) {
+        let (trace, measurement) = self.packet_trace::<false>(packet, active);
+        self.intersect_packet_as(trace, packet, active, hits, counters);
+        if let Some(m) = measurement {
+            m.finish((active & packet.full_mask()).count_ones());
+        }
+    }
+
+    /// [`Tracer::intersect_packet_counted`] traced as `trace` says.
+    fn intersect_packet_as(
+        &self,
+        trace: PacketTrace,
+        packet: &RayPacket,
+        active: u64,
+        hits: &mut HitPacket,
+        counters: &mut PacketCounters,
+    ) {
+        let culling = match trace {
             PacketTrace::Packet(culling) => culling,
-            PacketTrace::RayByRay { together } => {
+            PacketTrace::Measured { together, .. } | PacketTrace::RayByRay { together } => {
                 *hits = HitPacket::default();
                 self.ray_by_ray::<false>(packet, active, together, counters, |i, (_, hit, c)| {
                     (hits.t[i], hits.u[i], hits.v[i]) = (hit.t, hit.u, hit.v);
@@ -355,9 +372,15 @@ impl<'t> Tracer<'t> {
     }
 
     /// How the rays `active` of `packet` are traced ([`Culling::for_packet`] in the tree's
-    /// box).
-    fn packet_trace(&self, packet: &RayPacket, active: u64) -> PacketTrace {
-        self.culling.for_packet(packet, active, &self.tree.bounds())
+    /// box, a contested packet settled by this thread's measurements for closest hits or, with
+    /// `ANY`, any hit), and the measurement to finish when it has been.
+    fn packet_trace<const ANY: bool>(
+        &self,
+        packet: &RayPacket,
+        active: u64,
+    ) -> (PacketTrace, Option<measured_choice::Measurement>) {
+        let trace = self.culling.for_packet(packet, active, &self.tree.bounds());
+        measured_choice::resolve(trace, self.tree, ANY)
     }
 
     /// The packet query of call `q` in this tracer's tree.
@@ -412,9 +435,25 @@ impl<'t> Tracer<'t> {
         active: u64,
         counters: &mut PacketCounters,
     ) -> u64 {
-        let culling = match self.packet_trace(packet, active) {
+        let (trace, measurement) = self.packet_trace::<true>(packet, active);
+        let occluded = self.occluded_packet_as(trace, packet, active, counters);
+        if let Some(m) = measurement {
+            m.finish((active & packet.full_mask()).count_ones());
+        }
+        occluded
+    }
+
+    /// [`Tracer::occluded_packet_counted`] traced as `trace` says.
+    fn occluded_packet_as(
+        &self,
+        trace: PacketTrace,
+        packet: &RayPacket,
+        active: u64,
+        counters: &mut PacketCounters,
+    ) -> u64 {
+        let culling = match trace {
             PacketTrace::Packet(culling) => culling,
-            PacketTrace::RayByRay { together } => {
+            PacketTrace::Measured { together, .. } | PacketTrace::RayByRay { together } => {
                 let mut occluded = 0;
                 self.ray_by_ray::<true>(packet, active, together, counters, |i, (found, _, _)| {
                     occluded |= u64::from(found) << i;
