@@ -65,8 +65,9 @@ pub enum Frustum {
     /// Chosen per packet from how far apart its rays start and point (four of them compared):
     /// - ray by ray, as below, or as a packet (the per-ray packet traversal, with the beams of
     ///   the two cases after the next), whichever this thread has measured the faster on the
-    ///   tree for the kind of query (TSC cycles per ray, the other way retried every 16
-    ///   packets; ray by ray where there is no cycle counter), where neighbouring rays reach
+    ///   tree for the kind of query (TSC cycles per ray, the other way retried on 1 packet in
+    ///   16 to 1 in 1024, the rarer the slower it is; ray by ray where there is no cycle
+    ///   counter), where neighbouring rays reach
     ///   the scene more than 0.55% of its largest extent apart (origins apart, or directions
     ///   apart times the distance to the scene's centre): a mesh seen a few dozen pixels
     ///   wide, such as an instance far from the camera, or a small image, where each ray of a
