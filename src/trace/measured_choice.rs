@@ -173,36 +173,42 @@ thread_local! {
         const { RefCell::new(([((0, false), Costs::NEW); KINDS], 0)) };
 }
 
-/// A packet being traced the way [`resolve`] chose: its start, to be measured.
+/// A packet being traced the way [`resolve`] chose: where its cost goes, and its start.
 pub(crate) struct Measurement {
+    /// The kind's place in this thread's table, and the kind (another may have taken the
+    /// place by the time the packet is done: a scene's instances trace other trees within).
+    at: usize,
     key: Key,
     way: Way,
+    rays: u32,
     start: u64,
 }
 
 impl Measurement {
-    /// Records the packet's cost, `rays` rays traced since [`resolve`].
-    pub(crate) fn finish(self, rays: u32) {
+    /// Records the packet's cost since [`resolve`].
+    pub(crate) fn finish(self) {
         let Some(now) = tsc() else {
             return;
         };
-        let cycles_per_ray = now.saturating_sub(self.start) as f32 / rays.max(1) as f32;
+        let cycles_per_ray = now.saturating_sub(self.start) as f32 / self.rays.max(1) as f32;
         COSTS.with(|costs| {
-            let (kinds, _) = &mut *costs.borrow_mut();
-            if let Some((_, c)) = kinds.iter_mut().find(|(key, _)| *key == self.key) {
+            let (key, c) = &mut costs.borrow_mut().0[self.at];
+            if *key == self.key {
                 c.record(self.way, cycles_per_ray);
             }
         });
     }
 }
 
-/// `trace` with a [`PacketTrace::Measured`] settled for a packet of `tree` (`any`: any-hit
-/// rays) on this thread, and the measurement to finish once the packet is traced; other
-/// traces as they are. Without a cycle counter, the contested packets are traced ray by ray.
+/// `trace` with a [`PacketTrace::Measured`] settled for a packet of `rays` rays of `tree`
+/// (`any`: any-hit rays) on this thread, and the measurement to finish once the packet is
+/// traced; other traces as they are. Without a cycle counter, the contested packets are
+/// traced ray by ray.
 pub(crate) fn resolve(
     trace: PacketTrace,
     tree: &KdTree,
     any: bool,
+    rays: u32,
 ) -> (PacketTrace, Option<Measurement>) {
     let PacketTrace::Measured { together, packet } = trace else {
         return (trace, None);
@@ -211,24 +217,31 @@ pub(crate) fn resolve(
         return (PacketTrace::RayByRay { together }, None);
     };
     let key = (std::ptr::from_ref(tree) as usize, any);
-    let way = COSTS.with(|costs| {
+    let (at, way) = COSTS.with(|costs| {
         let (kinds, oldest) = &mut *costs.borrow_mut();
-        let at = match kinds.iter().position(|(k, _)| *k == key) {
-            Some(at) => at,
-            None => {
+        let at = kinds
+            .iter()
+            .position(|(k, _)| *k == key)
+            .unwrap_or_else(|| {
                 let at = *oldest;
                 kinds[at] = (key, Costs::NEW);
                 *oldest = (at + 1) % KINDS;
                 at
-            }
-        };
-        kinds[at].1.choose()
+            });
+        (at, kinds[at].1.choose())
     });
     let chosen = match way {
         Way::RayByRay => PacketTrace::RayByRay { together },
         Way::Packet => PacketTrace::Packet(packet),
     };
-    (chosen, Some(Measurement { key, way, start }))
+    let measurement = Measurement {
+        at,
+        key,
+        way,
+        rays,
+        start,
+    };
+    (chosen, Some(measurement))
 }
 
 #[cfg(test)]
@@ -313,7 +326,7 @@ mod tests {
         .unwrap();
         let tree = KdTree::build(&mesh, &crate::BuildParams::default()).unwrap();
         let fixed = PacketTrace::Packet(Culling::FULL);
-        let (trace, measurement) = resolve(fixed, &tree, false);
+        let (trace, measurement) = resolve(fixed, &tree, false, 8);
         assert_eq!(trace, fixed);
         assert!(measurement.is_none());
         if tsc().is_none() {
@@ -326,9 +339,9 @@ mod tests {
         };
         let mut ways = Vec::new();
         for _ in 0..2 {
-            let (trace, measurement) = resolve(contested, &tree, true);
+            let (trace, measurement) = resolve(contested, &tree, true, 8);
             ways.push(trace);
-            measurement.expect("a cycle counter").finish(8);
+            measurement.expect("a cycle counter").finish();
         }
         assert_eq!(
             ways,

@@ -325,7 +325,7 @@ impl<'t> Tracer<'t> {
         let (trace, measurement) = self.packet_trace::<false>(packet, active);
         self.intersect_packet_as(trace, packet, active, hits, counters);
         if let Some(m) = measurement {
-            m.finish((active & packet.full_mask()).count_ones());
+            m.finish();
         }
     }
 
@@ -340,6 +340,7 @@ impl<'t> Tracer<'t> {
     ) {
         let culling = match trace {
             PacketTrace::Packet(culling) => culling,
+            // A contested packet left unsettled goes ray by ray, as without a cycle counter.
             PacketTrace::Measured { together, .. } | PacketTrace::RayByRay { together } => {
                 *hits = HitPacket::default();
                 self.ray_by_ray::<false>(packet, active, together, counters, |i, (_, hit, c)| {
@@ -380,7 +381,8 @@ impl<'t> Tracer<'t> {
         active: u64,
     ) -> (PacketTrace, Option<measured_choice::Measurement>) {
         let trace = self.culling.for_packet(packet, active, &self.tree.bounds());
-        measured_choice::resolve(trace, self.tree, ANY)
+        let rays = (active & packet.full_mask()).count_ones();
+        measured_choice::resolve(trace, self.tree, ANY, rays)
     }
 
     /// The packet query of call `q` in this tracer's tree.
@@ -438,7 +440,7 @@ impl<'t> Tracer<'t> {
         let (trace, measurement) = self.packet_trace::<true>(packet, active);
         let occluded = self.occluded_packet_as(trace, packet, active, counters);
         if let Some(m) = measurement {
-            m.finish((active & packet.full_mask()).count_ones());
+            m.finish();
         }
         occluded
     }
@@ -453,6 +455,7 @@ impl<'t> Tracer<'t> {
     ) -> u64 {
         let culling = match trace {
             PacketTrace::Packet(culling) => culling,
+            // A contested packet left unsettled goes ray by ray, as without a cycle counter.
             PacketTrace::Measured { together, .. } | PacketTrace::RayByRay { together } => {
                 let mut occluded = 0;
                 self.ray_by_ray::<true>(packet, active, together, counters, |i, (found, _, _)| {
