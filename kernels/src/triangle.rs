@@ -75,17 +75,18 @@ pub const BLOCK: usize = MAX_WIDTH;
 /// Up to [`BLOCK`] triangles in structure-of-arrays form, with their mesh ids: lane `i` of
 /// `v[k][a]` is coordinate `a` of vertex `k` of triangle `i`.
 ///
-/// Both forms are stored, vertices (the watertight test, the beam) and Kensler–Shirley's
-/// edges and normal, so that neither test recomputes the other's form per ray group.
+/// Only the vertices are stored: Kensler–Shirley's edges and normal are two subtractions and a
+/// cross product away ([`KsTriangle::from`]), cheaper to recompute next to the test than to
+/// read, since a leaf's triangles come from memory far more often than from a cache.
 ///
 /// A kd-tree leaf is a run of blocks; its last block is padded with copies of a *point*
-/// triangle (three equal vertices, those of the leaf's first vertex; edges and normal 0) and id
+/// triangle (three equal vertices, those of the leaf's first vertex, so edges and normal 0) and id
 /// `u32::MAX`. A point triangle never hits: Kensler–Shirley has `n = 0` and a NaN `t`, the
 /// watertight test `det = 0`; its vertex lies in the leaf, so the beam and boxes see nothing unbounded.
 /// Readers still mask lanes at or beyond the leaf's count ([`TriangleBlock::valid_bits`]), so
 /// that padding costs no watertight `f64` fallback and counts no test.
 ///
-/// 64-byte aligned: a block is 19 whole cache lines, a vector load never splits one.
+/// 64-byte aligned: a block is 10 whole cache lines, a vector load never splits one.
 ///
 /// ```
 /// use kdbeam_kernels::triangle::{TriangleBlock, BLOCK};
@@ -103,9 +104,6 @@ pub const BLOCK: usize = MAX_WIDTH;
 pub struct TriangleBlock {
     /// `v[vertex][axis][lane]`.
     pub v: [[[f32; BLOCK]; 3]; 3],
-    /// The Kensler–Shirley form's `[e0, e1, n][axis][lane]` (as [`KsTriangle::from`] computes
-    /// them; its `p0` is `v[0]`).
-    pub ks: [[[f32; BLOCK]; 3]; 3],
     /// Mesh triangle ids (`u32::MAX` in padding lanes).
     pub ids: [u32; BLOCK],
 }
@@ -123,27 +121,15 @@ impl TriangleBlock {
     #[inline(always)]
     #[must_use]
     pub fn ks_triangle(&self, i: usize) -> KsTriangle {
-        let vector = |k: &[[f32; BLOCK]; 3]| Vec3::new(k[0][i], k[1][i], k[2][i]);
-        KsTriangle {
-            p0: vector(&self.v[0]),
-            e0: vector(&self.ks[0]),
-            e1: vector(&self.ks[1]),
-            n: vector(&self.ks[2]),
-        }
+        KsTriangle::from(&self.triangle(i))
     }
 
     /// Sets lane `i` to `tri` with id `id`. Panics if `i >= BLOCK`.
     #[inline]
     pub fn set(&mut self, i: usize, tri: &Triangle, id: u32) {
-        let ks = KsTriangle::from(tri);
         for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
             for a in 0..3 {
                 self.v[k][a][i] = v[a];
-            }
-        }
-        for (k, v) in [ks.e0, ks.e1, ks.n].into_iter().enumerate() {
-            for a in 0..3 {
-                self.ks[k][a][i] = v[a];
             }
         }
         self.ids[i] = id;
@@ -157,7 +143,6 @@ impl TriangleBlock {
         let vertex = [lanes(0), lanes(1), lanes(2)];
         TriangleBlock {
             v: [vertex; 3],
-            ks: [[[0.0; BLOCK]; 3]; 3],
             ids: [u32::MAX; BLOCK],
         }
     }

@@ -41,7 +41,8 @@ use super::{cross3, dot3, l1, splat3, sub3, LaneHits, LaneRays, TriangleHit};
 use crate::beam::load_vertex;
 use crate::lanes::{LaneF32, LaneMask, Lanes};
 use crate::ray::Ray;
-use crate::triangle::{KsTriangle, TriangleBlock};
+use crate::triangle::{KsTriangle, TriangleBlock, BLOCK};
+use glam::Vec3;
 
 /// `8ε` (`ε = 2⁻²⁴`, the unit roundoff of `f32`): `|n · d|` at or below `PLANE_EPS ·
 /// ‖e0‖₁‖e1‖₁‖d‖₁` is rounding noise, and the ray is taken to lie in the triangle's plane.
@@ -120,7 +121,8 @@ pub fn intersect_lanes<L: Lanes>(
 /// `block` (`first` a multiple of `WIDTH`), one triangle per lane, hits in `[tmin, tmax]`.
 ///
 /// Lane `i` of the result is what [`intersect`] returns for triangle `first + i` in its
-/// [`KsTriangle`] form (the block's `ks` and `v[0]`), bit for bit: the same operations, no FMA.
+/// [`KsTriangle`] form (computed from the block's vertices as [`KsTriangle::from`] does), bit
+/// for bit: the same operations, no FMA.
 /// The block's point-triangle padding never hits (`n = 0`, NaN `t`). Panics if
 /// `first + WIDTH > BLOCK`.
 ///
@@ -146,12 +148,8 @@ pub fn intersect_block<L: Lanes>(
     tmin: f32,
     tmax: f32,
 ) -> LaneHits<L> {
-    let (p0, e0, e1, n) = (
-        load_vertex(l, &block.v[0], first),
-        load_vertex(l, &block.ks[0], first),
-        load_vertex(l, &block.ks[1], first),
-        load_vertex(l, &block.ks[2], first),
-    );
+    let p0 = load_vertex(l, &block.v[0], first);
+    let [e0, e1, n] = ks_lanes(l, block, first);
     let d = splat3(l, ray.direction);
     let c = sub3(p0, splat3(l, ray.origin));
     let den = dot3(n, d);
@@ -171,4 +169,69 @@ pub fn intersect_block<L: Lanes>(
         mask = mask & off_plane(den, scale, l.splat(l1(ray.direction.to_array())));
     }
     LaneHits { mask, t, u, v }
+}
+
+/// `[e0, e1, n]` of lanes `first..first + WIDTH` of `block`: [`KsTriangle::from`]'s
+/// operations, lane by lane, so each lane equals it bit for bit.
+#[inline(always)]
+fn ks_lanes<L: Lanes>(l: L, block: &TriangleBlock, first: usize) -> [[L::F32; 3]; 3] {
+    let (p0, p1, p2) = (
+        load_vertex(l, &block.v[0], first),
+        load_vertex(l, &block.v[1], first),
+        load_vertex(l, &block.v[2], first),
+    );
+    let (e0, e1) = (sub3(p1, p0), sub3(p0, p2));
+    [e0, e1, cross3(e0, e1)]
+}
+
+/// A [`TriangleBlock`]'s triangles in Kensler–Shirley form: `[e0, e1, n][axis][lane]`.
+///
+/// Blocks store only vertices; a packet tests each triangle against several groups of rays,
+/// so it computes this once per block in lanes, rather than per triangle and group.
+///
+/// ```
+/// use kdbeam_kernels::intersect::kensler_shirley::KsBlock;
+/// use kdbeam_kernels::lanes::Scalar;
+/// use kdbeam_kernels::{KsTriangle, Triangle, TriangleBlock, Vec3};
+///
+/// let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+/// let mut block = TriangleBlock::padding(t.v0);
+/// block.set(3, &t, 0);
+/// let ks = KsBlock::new(Scalar, &block);
+/// assert_eq!(ks.triangle(&block, 3), KsTriangle::from(&t));
+/// assert_eq!(ks.triangle(&block, 0).n, Vec3::ZERO);
+/// ```
+#[derive(Clone, Copy, Debug)]
+pub struct KsBlock {
+    e: [[[f32; BLOCK]; 3]; 3],
+}
+
+impl KsBlock {
+    /// The Kensler–Shirley form of every lane of `block`.
+    #[inline(always)]
+    #[must_use]
+    pub fn new<L: Lanes>(l: L, block: &TriangleBlock) -> Self {
+        let mut e = [[[0.0; BLOCK]; 3]; 3];
+        for first in (0..BLOCK).step_by(L::WIDTH) {
+            for (k, vector) in ks_lanes(l, block, first).into_iter().enumerate() {
+                for (a, lanes) in vector.into_iter().enumerate() {
+                    l.store(lanes, &mut e[k][a][first..]);
+                }
+            }
+        }
+        KsBlock { e }
+    }
+
+    /// Triangle `i` of `block` (the block this was made from). Panics if `i >= BLOCK`.
+    #[inline(always)]
+    #[must_use]
+    pub fn triangle(&self, block: &TriangleBlock, i: usize) -> KsTriangle {
+        let vector = |k: &[[f32; BLOCK]; 3]| Vec3::new(k[0][i], k[1][i], k[2][i]);
+        KsTriangle {
+            p0: vector(&block.v[0]),
+            e0: vector(&self.e[0]),
+            e1: vector(&self.e[1]),
+            n: vector(&self.e[2]),
+        }
+    }
 }

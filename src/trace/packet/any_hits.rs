@@ -58,6 +58,7 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
         let mut blocks = SurvivorBlocks::new(l, beam, p, &visit, &self.tmax, counters);
         #[allow(clippy::while_let_on_iterator)]
         while let Some((first, s)) = blocks.next() {
+            let block = T::prepare_block(l, &visit.triangles, first);
             let mut groups = open;
             while groups != 0 {
                 let g = take_group::<L>(&mut groups);
@@ -79,7 +80,17 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
                     tests += u64::from(bits.count_ones());
                     let inside = s.inside >> j & 1 != 0;
                     let tris = &visit.triangles;
-                    let h = T::test(l, &prepared, &rays, tris, first + j, (tmin, tmax), inside);
+                    let t_range = (tmin, tmax);
+                    let h = T::test(
+                        l,
+                        &prepared,
+                        &block,
+                        &rays,
+                        tris,
+                        first + j,
+                        t_range,
+                        inside,
+                    );
                     bits &= !h.mask.bits();
                     tmax = L::F32::select(h.mask, closed, tmax);
                 }

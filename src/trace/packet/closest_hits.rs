@@ -123,11 +123,12 @@ fn test_groups<L: Lanes, T: LaneTest<L>>(
     counters: &mut PacketCounters,
 ) -> u64 {
     let mut improved = 0u64;
+    let form = T::prepare_block(l, leaf, block.0);
     let mut rest = mask;
     while rest != 0 {
         let g = take_group::<L>(&mut rest);
         let bits = group_bits::<L>(mask, g);
-        let better = test_group::<L, T>(l, p, (g, bits), leaf, block, hits);
+        let better = test_group::<L, T>(l, p, (g, bits), (leaf, &form), block, hits);
         improved |= u64::from(better) << (g * L::WIDTH);
         // Counted here, not once above the loop: kept live across `test_group` it cost the
         // AVX-512 packet paths up to a quarter of their speed (register pressure).
@@ -159,7 +160,7 @@ fn test_group<L: Lanes, T: LaneTest<L>>(
     l: L,
     p: &RayPacket,
     (g, bits): (usize, u32),
-    leaf: &LeafTriangles<'_>,
+    (leaf, form): (&LeafTriangles<'_>, &T::Block),
     (first, survivors, culled): (usize, Survivors, bool),
     hits: &mut HitPacket,
 ) -> u32 {
@@ -179,7 +180,7 @@ fn test_group<L: Lanes, T: LaneTest<L>>(
         rest &= rest - 1;
         let i = first + j;
         let inside = survivors.inside >> j & 1 != 0;
-        let h = T::test(l, &prepared, &rays, leaf, i, (tmin, best_t), inside);
+        let h = T::test(l, &prepared, form, &rays, leaf, i, (tmin, best_t), inside);
         let found = h.mask & act;
         if !culled && found.none() {
             continue;

@@ -1,8 +1,9 @@
 //! The ray–triangle tests of a group of lanes: Kensler–Shirley and watertight, behind one trait.
 
-use kdbeam_kernels::intersect::kensler_shirley;
+use kdbeam_kernels::intersect::kensler_shirley::{self, KsBlock};
 use kdbeam_kernels::intersect::watertight::WatertightLanes;
 use kdbeam_kernels::intersect::{LaneHits, LaneRays};
+use kdbeam_kernels::triangle::BLOCK;
 use kdbeam_kernels::{LaneF32, Lanes};
 
 use crate::kdtree::LeafTriangles;
@@ -11,14 +12,21 @@ use crate::kdtree::LeafTriangles;
 pub(crate) trait LaneTest<L: Lanes> {
     /// Per-group work done once per leaf (the watertight shear).
     type Prepared;
+    /// Per-block work done once per leaf visit (Kensler–Shirley's edges and normal).
+    type Block;
     /// Prepares group `rays`.
     fn prepare(l: L, rays: &LaneRays<L>) -> Self::Prepared;
-    /// Tests triangle `i` of `leaf` against the group, hits in `t_range = (tmin, tmax)`.
+    /// Prepares the block of `leaf` that holds triangle `first`.
+    fn prepare_block(l: L, leaf: &LeafTriangles<'_>, first: usize) -> Self::Block;
+    /// Tests triangle `i` of `leaf` against the group, hits in `t_range = (tmin, tmax)`;
+    /// `block` is [`LaneTest::prepare_block`] of the block holding `i`.
     /// `inside`: the beam proved every ray crosses the triangle, so its barycentric checks may
     /// be skipped.
+    #[allow(clippy::too_many_arguments)]
     fn test(
         l: L,
         prepared: &Self::Prepared,
+        block: &Self::Block,
         rays: &LaneRays<L>,
         leaf: &LeafTriangles<'_>,
         i: usize,
@@ -47,19 +55,26 @@ pub(crate) struct KsLanes;
 
 impl<L: Lanes> LaneTest<L> for KsLanes {
     type Prepared = ();
+    type Block = KsBlock;
     #[inline(always)]
     fn prepare(_: L, _: &LaneRays<L>) {}
+    #[inline(always)]
+    fn prepare_block(l: L, leaf: &LeafTriangles<'_>, first: usize) -> KsBlock {
+        KsBlock::new(l, &leaf.blocks[first / BLOCK])
+    }
     #[inline(always)]
     fn test(
         l: L,
         _: &(),
+        block: &KsBlock,
         rays: &LaneRays<L>,
         leaf: &LeafTriangles<'_>,
         i: usize,
         (tmin, tmax): (L::F32, L::F32),
         inside: bool,
     ) -> LaneHits<L> {
-        let h = kensler_shirley::intersect_lanes(l, rays, &leaf.ks(i), tmin, tmax);
+        let tri = block.triangle(&leaf.blocks[i / BLOCK], i % BLOCK);
+        let h = kensler_shirley::intersect_lanes(l, rays, &tri, tmin, tmax);
         if inside {
             // Reshetov (after Dmitriev et al.): all four corner rays hit the triangle, so every
             // ray does; only the distance decides. The barycentrics the kernel computed are
@@ -80,14 +95,18 @@ pub(crate) struct WatertightLaneTest;
 
 impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
     type Prepared = WatertightLanes<L>;
+    type Block = ();
     #[inline(always)]
     fn prepare(l: L, rays: &LaneRays<L>) -> WatertightLanes<L> {
         WatertightLanes::new(l, rays)
     }
     #[inline(always)]
+    fn prepare_block(_: L, _: &LeafTriangles<'_>, _: usize) {}
+    #[inline(always)]
     fn test(
         l: L,
         prepared: &WatertightLanes<L>,
+        _: &(),
         _: &LaneRays<L>,
         leaf: &LeafTriangles<'_>,
         i: usize,
