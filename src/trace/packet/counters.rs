@@ -1,9 +1,10 @@
 //! What packet traversals count: packets, node and leaf visits, tests, culled tests, hits.
 
-use kdbeam_kernels::MAX_PACKET_RAYS;
-
 /// Work done by packet traversals, summed by callers.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// A handful of counters, so that a call that builds and returns one per packet
+/// ([`Tracer::intersect_packet`](crate::Tracer::intersect_packet)) pays little for it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PacketCounters {
     /// Packets (after the split by octant) traced.
     pub packets: u64,
@@ -28,8 +29,8 @@ pub struct PacketCounters {
     pub culled_aperture: u64,
     /// Hits found (a ray's closest hit improving; counted with the `stats` feature).
     pub hits: u64,
-    /// Leaf visits by number of active rays, 0 to 64 (counted with the `stats` feature).
-    pub active_rays: [u64; MAX_PACKET_RAYS + 1],
+    /// Leaf visits with a single active ray (counted with the `stats` feature).
+    pub single_ray_visits: u64,
     /// TSC reference cycles by stage (timed with the `stats` feature).
     pub cycles: StageCycles,
 }
@@ -87,26 +88,6 @@ impl Stamp {
     }
 }
 
-impl Default for PacketCounters {
-    fn default() -> Self {
-        PacketCounters {
-            packets: 0,
-            inner_visits: 0,
-            leaf_visits: 0,
-            ray_leaf_visits: 0,
-            potential_tests: 0,
-            tests: 0,
-            beams: 0,
-            culled_planes: 0,
-            culled_distance: 0,
-            culled_aperture: 0,
-            hits: 0,
-            active_rays: [0; MAX_PACKET_RAYS + 1],
-            cycles: StageCycles::default(),
-        }
-    }
-}
-
 impl PacketCounters {
     /// Adds `o` to `self`.
     pub fn add(&mut self, o: &PacketCounters) {
@@ -121,9 +102,7 @@ impl PacketCounters {
         self.culled_distance += o.culled_distance;
         self.culled_aperture += o.culled_aperture;
         self.hits += o.hits;
-        for (a, b) in self.active_rays.iter_mut().zip(&o.active_rays) {
-            *a += b;
-        }
+        self.single_ray_visits += o.single_ray_visits;
         self.cycles.add(&o.cycles);
     }
 
@@ -139,6 +118,6 @@ impl PacketCounters {
     /// Share of leaf visits with a single active ray, in percent (with the `stats` feature).
     #[must_use]
     pub fn single_ray_visits_percent(&self) -> f64 {
-        100.0 * self.active_rays[1] as f64 / self.leaf_visits.max(1) as f64
+        100.0 * self.single_ray_visits as f64 / self.leaf_visits.max(1) as f64
     }
 }

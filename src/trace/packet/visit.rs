@@ -85,7 +85,7 @@ pub(super) fn visit_leaf<L: Lanes, V: PacketVisitor<L>>(
     counters.potential_tests += rays * visit.triangles.len() as u64;
     #[cfg(feature = "stats")]
     {
-        counters.active_rays[rays as usize] += 1;
+        counters.single_ray_visits += u64::from(rays == 1);
     }
     let start = Stamp::now();
     let finished = visitor.visit(l, p, visit, counters);
