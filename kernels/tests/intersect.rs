@@ -6,7 +6,7 @@
 mod common;
 
 use common::{barycentric_point, gather, lanes_of, ray_through, same, well_shaped_triangle, Rng};
-use kdbeam_kernels::intersect::kensler_shirley;
+use kdbeam_kernels::intersect::kensler_shirley::{self, KsBlock};
 use kdbeam_kernels::intersect::oracle::OracleRay;
 use kdbeam_kernels::intersect::watertight::{WatertightLanes, WatertightRay};
 use kdbeam_kernels::intersect::{LaneHits, TriangleHit};
@@ -499,6 +499,25 @@ impl LaneTask for BlockVsSingle {
             let lanes = chunk.iter().zip(start as u32..).map(|(t, id)| (*t, id));
             blocks.push((TriangleBlock::new(chunk[0].v0, lanes), chunk.len(), start));
             start += count;
+        }
+        // The packets' per-block Kensler–Shirley form equals the single triangle's, lane by lane.
+        for (block, count, start) in &blocks {
+            let form = KsBlock::new(l, block);
+            for lane in 0..BLOCK {
+                let (got, want) = (form.triangle(block, lane), block.ks_triangle(lane));
+                let pairs = [
+                    (got.p0, want.p0),
+                    (got.e0, want.e0),
+                    (got.e1, want.e1),
+                    (got.n, want.n),
+                ];
+                if !pairs.iter().all(|(a, b)| (0..3).all(|k| same(a[k], b[k]))) {
+                    failures.push(format!(
+                        "{} KsBlock lane {lane} of {count} (block at {start})",
+                        L::ISA
+                    ));
+                }
+            }
         }
         let all = (1u32 << L::WIDTH) - 1;
         for ray in &self.rays {

@@ -79,18 +79,8 @@ impl<L: Lanes, T: LaneTest<L>> PacketVisitor<L> for AnyHits<T> {
                     rest &= rest - 1;
                     tests += u64::from(bits.count_ones());
                     let inside = s.inside >> j & 1 != 0;
-                    let tris = &visit.triangles;
-                    let t_range = (tmin, tmax);
-                    let h = T::test(
-                        l,
-                        &prepared,
-                        &block,
-                        &rays,
-                        tris,
-                        first + j,
-                        t_range,
-                        inside,
-                    );
+                    let leaf = (&visit.triangles, &block);
+                    let h = T::test(l, &prepared, &rays, leaf, first + j, (tmin, tmax), inside);
                     bits &= !h.mask.bits();
                     tmax = L::F32::select(h.mask, closed, tmax);
                 }

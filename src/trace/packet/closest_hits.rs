@@ -180,7 +180,7 @@ fn test_group<L: Lanes, T: LaneTest<L>>(
         rest &= rest - 1;
         let i = first + j;
         let inside = survivors.inside >> j & 1 != 0;
-        let h = T::test(l, &prepared, form, &rays, leaf, i, (tmin, best_t), inside);
+        let h = T::test(l, &prepared, &rays, (leaf, form), i, (tmin, best_t), inside);
         let found = h.mask & act;
         if !culled && found.none() {
             continue;

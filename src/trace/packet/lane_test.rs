@@ -18,17 +18,15 @@ pub(crate) trait LaneTest<L: Lanes> {
     fn prepare(l: L, rays: &LaneRays<L>) -> Self::Prepared;
     /// Prepares the block of `leaf` that holds triangle `first`.
     fn prepare_block(l: L, leaf: &LeafTriangles<'_>, first: usize) -> Self::Block;
-    /// Tests triangle `i` of `leaf` against the group, hits in `t_range = (tmin, tmax)`;
-    /// `block` is [`LaneTest::prepare_block`] of the block holding `i`.
+    /// Tests triangle `i` of `leaf = (triangles, block)` against the group, hits in `t_range =
+    /// (tmin, tmax)`; `block` is [`LaneTest::prepare_block`] of the block holding `i`.
     /// `inside`: the beam proved every ray crosses the triangle, so its barycentric checks may
     /// be skipped.
-    #[allow(clippy::too_many_arguments)]
     fn test(
         l: L,
         prepared: &Self::Prepared,
-        block: &Self::Block,
         rays: &LaneRays<L>,
-        leaf: &LeafTriangles<'_>,
+        leaf: (&LeafTriangles<'_>, &Self::Block),
         i: usize,
         t_range: (L::F32, L::F32),
         inside: bool,
@@ -66,9 +64,8 @@ impl<L: Lanes> LaneTest<L> for KsLanes {
     fn test(
         l: L,
         _: &(),
-        block: &KsBlock,
         rays: &LaneRays<L>,
-        leaf: &LeafTriangles<'_>,
+        (leaf, block): (&LeafTriangles<'_>, &KsBlock),
         i: usize,
         (tmin, tmax): (L::F32, L::F32),
         inside: bool,
@@ -106,9 +103,8 @@ impl<L: Lanes> LaneTest<L> for WatertightLaneTest {
     fn test(
         l: L,
         prepared: &WatertightLanes<L>,
-        _: &(),
         _: &LaneRays<L>,
-        leaf: &LeafTriangles<'_>,
+        (leaf, _): (&LeafTriangles<'_>, &()),
         i: usize,
         (tmin, tmax): (L::F32, L::F32),
         _: bool,
